@@ -1,0 +1,396 @@
+//! Design files: what a user writes (RON, SI units), and the rules a design must satisfy.
+//!
+//! Two kinds of file share the same [`Leg`]:
+//! - [`Tdcr`]: one tendon-driven continuum robot, base at the origin, straight along +z;
+//! - [`Tdpcr`]: the parallel robot of three identical legs holding a platform (MODEL.md §1).
+//!
+//! Loading ([`Tdcr::from_ron_file`], [`Tdpcr::from_ron_file`]) parses, rejects unknown
+//! fields, and validates every value, listing all broken rules at once.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{DesignError, Violations};
+
+/// Most tendons one leg may carry (sizes the allocation-free integrator buffers).
+pub const MAX_TENDONS: usize = 12;
+
+/// Default number of fixed integration steps over the whole leg length.
+pub const DEFAULT_INTEGRATION_STEPS: usize = 48;
+
+/// One tendon, routed straight (parallel to the backbone) at a fixed offset.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tendon {
+    /// Angle about the rod axis, from the body x-axis [rad].
+    pub angle: f64,
+    /// Distance from the backbone centre line [m].
+    pub offset: f64,
+    /// Arc length at which the tendon is attached to its last disk [m], in (0, L].
+    pub end: f64,
+}
+
+/// The spacer disks: equally spaced, the last one at the tip.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Disks {
+    /// Number of disks (≥ 1); disk j sits at s = j·L/count, j = 1..count.
+    pub count: usize,
+    /// Mass of one disk [kg].
+    pub mass: f64,
+    /// Disk radius [m], used for collision checks; tendon offsets must fit inside.
+    pub radius: f64,
+}
+
+/// One tendon-driven Cosserat rod (MODEL.md §2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Leg {
+    /// Rod length L [m].
+    pub length: f64,
+    /// Radius of the solid round backbone [m].
+    pub backbone_radius: f64,
+    /// Young's modulus E [Pa].
+    pub youngs_modulus: f64,
+    /// Poisson ratio ν, in (−1, 0.5); G = E / (2(1 + ν)).
+    pub poisson_ratio: f64,
+    /// Backbone mass [kg] (spread uniformly over L with the disk masses).
+    pub backbone_mass: f64,
+    /// Spacer disks.
+    pub disks: Disks,
+    /// Axial stiffness of each tendon (EA)_t [N].
+    pub tendon_stiffness: f64,
+    /// The tendons, in the order used for tensions and displacements.
+    pub tendons: Vec<Tendon>,
+    /// Optional: fixed RK4 steps over the whole length (default
+    /// [`DEFAULT_INTEGRATION_STEPS`]). Steps are spread over the intervals between disks.
+    #[serde(default = "default_integration_steps")]
+    pub integration_steps: usize,
+}
+
+fn default_integration_steps() -> usize {
+    DEFAULT_INTEGRATION_STEPS
+}
+
+/// A single tendon-driven continuum robot: base frame = world frame, rod along +z.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tdcr {
+    /// Gravitational acceleration in the world frame [m/s²].
+    pub gravity: (f64, f64, f64),
+    /// The robot.
+    pub leg: Leg,
+}
+
+/// The platform (end-effector) of the parallel robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Platform {
+    /// Side length L_a of the equilateral coupling triangle [m].
+    pub side_length: f64,
+    /// Platform mass m_p [kg].
+    pub mass: f64,
+}
+
+/// Actuation limits (symmetric about zero).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuationLimits {
+    /// Largest |q_b| per tendon pair [m].
+    pub tendon_displacement: f64,
+    /// Largest |q_t| per base [m].
+    pub base_translation: f64,
+}
+
+/// A tendon-driven parallel continuum robot (MODEL.md §1).
+///
+/// The leg's tendons come in antagonistic pairs (tendon 2j and 2j+1 at opposite
+/// angles): one pair gives the 6-DoF design, two pairs the 9-DoF design.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tdpcr {
+    /// Gravitational acceleration in the world frame [m/s²].
+    pub gravity: (f64, f64, f64),
+    /// The leg used three times.
+    pub leg: Leg,
+    /// The platform.
+    pub platform: Platform,
+    /// Rigid link L_c from rod tip to spherical joint, along the tip tangent [m].
+    pub coupling_offset: f64,
+    /// Angle α between each leg and the platform plane [rad].
+    pub alpha: f64,
+    /// Rotation β of each leg about world z, away from pointing at the centre [rad].
+    pub beta: f64,
+    /// Optional roll ψ of each base frame about its leg tangent [rad] (default 0).
+    #[serde(default)]
+    pub psi: f64,
+    /// Optional angles θ_i of the coupling points in the platform frame [rad]
+    /// (default 90°, 210°, 330°).
+    #[serde(default = "default_coupling_angles")]
+    pub coupling_angles: (f64, f64, f64),
+    /// Tension τ_pre of every tendon in the unloaded straight home configuration [N].
+    pub pretension: f64,
+    /// Actuation limits.
+    pub actuation_limits: ActuationLimits,
+}
+
+fn default_coupling_angles() -> (f64, f64, f64) {
+    (
+        PI / 2.0,
+        PI / 2.0 + 2.0 * PI / 3.0,
+        PI / 2.0 + 4.0 * PI / 3.0,
+    )
+}
+
+/// Reads and parses a RON file into `T`, mapping errors to [`DesignError`].
+fn parse_ron_file<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, DesignError> {
+    let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_ron_str(&text, path)
+}
+
+fn parse_ron_str<T: for<'de> Deserialize<'de>>(text: &str, path: &Path) -> Result<T, DesignError> {
+    ron::de::from_str(text).map_err(|e| DesignError::Parse {
+        path: path.to_path_buf(),
+        line: e.span.start.line,
+        column: e.span.start.col,
+        message: e.code.to_string(),
+    })
+}
+
+/// Serializes with struct names, so the output loads back.
+fn to_ron_string<T: Serialize>(value: &T) -> String {
+    let config = ron::ser::PrettyConfig::new().struct_names(true);
+    ron::ser::to_string_pretty(value, config).expect("design structs always serialize")
+}
+
+fn check_finite(v: &mut Violations, field: &str, value: f64) -> bool {
+    if value.is_finite() {
+        true
+    } else {
+        v.push(field, value, "a finite number");
+        false
+    }
+}
+
+fn check_positive(v: &mut Violations, field: &str, value: f64, unit: &str) {
+    if !(value.is_finite() && value > 0.0) {
+        v.push(field, value, &format!("> 0 {unit}"));
+    }
+}
+
+fn check_non_negative(v: &mut Violations, field: &str, value: f64, unit: &str) {
+    if !(value.is_finite() && value >= 0.0) {
+        v.push(field, value, &format!(">= 0 {unit}"));
+    }
+}
+
+fn check_gravity(v: &mut Violations, g: (f64, f64, f64)) {
+    for (name, x) in [("gravity.0", g.0), ("gravity.1", g.1), ("gravity.2", g.2)] {
+        check_finite(v, name, x);
+    }
+}
+
+impl Leg {
+    /// Appends every broken rule of this leg to `v`; field names start with `prefix`.
+    pub fn check(&self, prefix: &str, v: &mut Violations) {
+        let f = |name: &str| format!("{prefix}.{name}");
+        check_positive(v, &f("length"), self.length, "m");
+        check_positive(v, &f("backbone_radius"), self.backbone_radius, "m");
+        check_positive(v, &f("youngs_modulus"), self.youngs_modulus, "Pa");
+        if !(self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {
+            v.push(f("poisson_ratio"), self.poisson_ratio, "in (-1, 0.5)");
+        }
+        check_non_negative(v, &f("backbone_mass"), self.backbone_mass, "kg");
+        if self.disks.count == 0 {
+            v.push(f("disks.count"), self.disks.count, ">= 1");
+        }
+        check_non_negative(v, &f("disks.mass"), self.disks.mass, "kg");
+        check_positive(v, &f("disks.radius"), self.disks.radius, "m");
+        check_positive(v, &f("tendon_stiffness"), self.tendon_stiffness, "N");
+        if !(1..=100_000).contains(&self.integration_steps) {
+            v.push(
+                f("integration_steps"),
+                self.integration_steps,
+                "in 1..=100000",
+            );
+        }
+        if self.tendons.len() > MAX_TENDONS {
+            v.push(
+                f("tendons"),
+                format!("{} tendons", self.tendons.len()),
+                &format!("at most {MAX_TENDONS} tendons"),
+            );
+        }
+        for (k, t) in self.tendons.iter().enumerate() {
+            let tf = |name: &str| format!("{prefix}.tendons[{k}].{name}");
+            check_finite(v, &tf("angle"), t.angle);
+            if !(t.offset.is_finite() && t.offset > 0.0) {
+                v.push(tf("offset"), t.offset, "> 0 m");
+            } else if self.disks.radius.is_finite() && t.offset > self.disks.radius {
+                v.push(
+                    tf("offset"),
+                    t.offset,
+                    &format!(
+                        "<= disks.radius = {} m (the tendon runs through the disks)",
+                        self.disks.radius
+                    ),
+                );
+            }
+            if !(t.end.is_finite() && t.end > 0.0 && t.end <= self.length) {
+                v.push(
+                    tf("end"),
+                    t.end,
+                    &format!(
+                        "in (0, length = {}] m (an arc length on the rod)",
+                        self.length
+                    ),
+                );
+            }
+        }
+    }
+}
+
+impl Tdcr {
+    /// Loads and validates a single-TDCR file.
+    ///
+    /// # Errors
+    /// [`DesignError::Io`], [`DesignError::Parse`] with line and column, or
+    /// [`DesignError::Invalid`] listing every broken rule.
+    pub fn from_ron_file(path: impl AsRef<Path>) -> Result<Self, DesignError> {
+        let path = path.as_ref();
+        let robot: Self = parse_ron_file(path)?;
+        robot.validate(&path.display().to_string())?;
+        Ok(robot)
+    }
+
+    /// Parses and validates RON text (`source` names it in errors).
+    pub fn from_ron_str(text: &str, source: &str) -> Result<Self, DesignError> {
+        let robot: Self = parse_ron_str(text, Path::new(source))?;
+        robot.validate(source)?;
+        Ok(robot)
+    }
+
+    /// Checks every rule; all violations are reported together.
+    pub fn validate(&self, source: &str) -> Result<(), DesignError> {
+        let mut v = Violations::default();
+        check_gravity(&mut v, self.gravity);
+        self.leg.check("leg", &mut v);
+        v.into_result(source)
+    }
+
+    /// The design as RON text (loads back with [`Tdcr::from_ron_str`]).
+    pub fn to_ron_string(&self) -> String {
+        to_ron_string(self)
+    }
+}
+
+impl Tdpcr {
+    /// Loads and validates a parallel-robot design file.
+    ///
+    /// # Errors
+    /// As [`Tdcr::from_ron_file`].
+    pub fn from_ron_file(path: impl AsRef<Path>) -> Result<Self, DesignError> {
+        let path = path.as_ref();
+        let design: Self = parse_ron_file(path)?;
+        design.validate(&path.display().to_string())?;
+        Ok(design)
+    }
+
+    /// Parses and validates RON text (`source` names it in errors).
+    pub fn from_ron_str(text: &str, source: &str) -> Result<Self, DesignError> {
+        let design: Self = parse_ron_str(text, Path::new(source))?;
+        design.validate(source)?;
+        Ok(design)
+    }
+
+    /// Number of antagonistic tendon pairs per leg (1: 6-DoF design, 2: 9-DoF design).
+    pub fn pairs_per_leg(&self) -> usize {
+        self.leg.tendons.len() / 2
+    }
+
+    /// Length of the actuation vector q: 3 · (pairs + 1).
+    pub fn n_actuators(&self) -> usize {
+        3 * (self.pairs_per_leg() + 1)
+    }
+
+    /// Checks every rule; all violations are reported together.
+    pub fn validate(&self, source: &str) -> Result<(), DesignError> {
+        let mut v = Violations::default();
+        check_gravity(&mut v, self.gravity);
+        self.leg.check("leg", &mut v);
+        let n = self.leg.tendons.len();
+        if n != 2 && n != 4 {
+            v.push(
+                "leg.tendons",
+                format!("{n} tendons"),
+                "2 (one antagonistic pair: 6-DoF) or 4 (two pairs: 9-DoF)",
+            );
+        }
+        for j in 0..n / 2 {
+            let (a, b) = (&self.leg.tendons[2 * j], &self.leg.tendons[2 * j + 1]);
+            let gap = (b.angle - a.angle).rem_euclid(2.0 * PI);
+            if (gap - PI).abs() > 1e-9 {
+                v.push(
+                    format!("leg.tendons[{}].angle", 2 * j + 1),
+                    b.angle,
+                    &format!("tendon[{}].angle + pi (antagonistic pair)", 2 * j),
+                );
+            }
+            if a.offset != b.offset || a.end != b.end {
+                v.push(
+                    format!("leg.tendons[{}]", 2 * j + 1),
+                    format!("offset {}, end {}", b.offset, b.end),
+                    &format!(
+                        "the offset and end of tendon[{}] (antagonistic pair)",
+                        2 * j
+                    ),
+                );
+            }
+        }
+        check_positive(
+            &mut v,
+            "platform.side_length",
+            self.platform.side_length,
+            "m",
+        );
+        check_non_negative(&mut v, "platform.mass", self.platform.mass, "kg");
+        check_non_negative(&mut v, "coupling_offset", self.coupling_offset, "m");
+        if !(self.alpha.is_finite() && self.alpha > 0.0 && self.alpha < PI / 2.0) {
+            v.push("alpha", self.alpha, "in (0, pi/2) rad");
+        }
+        check_finite(&mut v, "beta", self.beta);
+        check_finite(&mut v, "psi", self.psi);
+        let (a0, a1, a2) = self.coupling_angles;
+        for (name, x) in [
+            ("coupling_angles.0", a0),
+            ("coupling_angles.1", a1),
+            ("coupling_angles.2", a2),
+        ] {
+            check_finite(&mut v, name, x);
+        }
+        check_non_negative(&mut v, "pretension", self.pretension, "N");
+        check_positive(
+            &mut v,
+            "actuation_limits.tendon_displacement",
+            self.actuation_limits.tendon_displacement,
+            "m",
+        );
+        check_positive(
+            &mut v,
+            "actuation_limits.base_translation",
+            self.actuation_limits.base_translation,
+            "m",
+        );
+        v.into_result(source)
+    }
+
+    /// The design as RON text (loads back with [`Tdpcr::from_ron_str`]).
+    pub fn to_ron_string(&self) -> String {
+        to_ron_string(self)
+    }
+}

@@ -1,0 +1,133 @@
+//! Error types. Every message names the field or stage, the value and what was expected.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// One violated rule in a design or in command-line input.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Violation {
+    /// Dotted path of the field, e.g. `leg.tendons[1].end`.
+    pub field: String,
+    /// The offending value, as written.
+    pub value: String,
+    /// The rule the value breaks, e.g. `> 0 m`.
+    pub expected: String,
+}
+
+impl fmt::Display for Violation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} = {}: expected {}",
+            self.field, self.value, self.expected
+        )
+    }
+}
+
+/// A list of violations, displayed one per line.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Violations(pub Vec<Violation>);
+
+impl Violations {
+    /// Records a violation.
+    pub fn push(&mut self, field: impl Into<String>, value: impl fmt::Display, expected: &str) {
+        self.0.push(Violation {
+            field: field.into(),
+            value: value.to_string(),
+            expected: expected.to_string(),
+        });
+    }
+
+    /// `Ok(())` when empty, otherwise the list as a [`DesignError::Invalid`].
+    pub fn into_result(self, source: &str) -> Result<(), DesignError> {
+        if self.0.is_empty() {
+            Ok(())
+        } else {
+            Err(DesignError::Invalid {
+                origin: source.to_string(),
+                violations: self,
+            })
+        }
+    }
+}
+
+impl fmt::Display for Violations {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for v in &self.0 {
+            write!(f, "\n  - {v}")?;
+        }
+        Ok(())
+    }
+}
+
+/// A design file that cannot be read, parsed or accepted.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// File path.
+        path: PathBuf,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
+    /// The file is not valid RON for this schema.
+    #[error("{path}:{line}:{column}: {message}")]
+    Parse {
+        /// File path (or `<string>`).
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What the parser expected.
+        message: String,
+    },
+    /// The file parsed but some values break the rules; all of them are listed.
+    #[error("invalid {origin} ({} problem{}):{violations}", violations.0.len(), if violations.0.len() == 1 { "" } else { "s" })]
+    Invalid {
+        /// What was validated (file path or input name).
+        origin: String,
+        /// Every broken rule.
+        violations: Violations,
+    },
+}
+
+/// A solve or an integration that failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolveError {
+    /// Newton stopped without reaching the tolerance.
+    #[error(
+        "solve did not converge: residual norm {residual_norm:.3e} (tolerance {tolerance:.1e}) after {iterations} iterations: {reason}"
+    )]
+    NotConverged {
+        /// Newton iterations (Jacobian evaluations) performed.
+        iterations: usize,
+        /// Euclidean norm of the SI residual at the best point found.
+        residual_norm: f64,
+        /// Requested tolerance.
+        tolerance: f64,
+        /// Why it stopped (iteration limit, trust region collapsed, ...).
+        reason: &'static str,
+    },
+    /// A NaN or infinity appeared.
+    #[error("non-finite value in {stage}")]
+    NonFinite {
+        /// Where it appeared.
+        stage: &'static str,
+    },
+}
+
+/// Any failure of a library entry point.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A design file could not be loaded.
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    /// A solve failed.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    /// The inputs of a solve (actuation, loads, ...) break a rule; all are listed.
+    #[error("invalid input:{0}")]
+    Input(Violations),
+}

@@ -1,0 +1,35 @@
+//! # tdpcr
+//!
+//! Kinetostatics of tendon-driven continuum robots (TDCR) and tendon-driven parallel
+//! continuum robots (TDPCR) by shooting, with exact Jacobians from forward sensitivity
+//! propagation along the rod ODEs. The mathematics and every sign convention are in
+//! `MODEL.md` (shipped in the repository's docs); equation numbers refer to Lilge &
+//! Burgner-Kahrs, "Kinetostatic Modeling of Tendon-Driven Parallel Continuum Robots".
+//!
+//! Entry points:
+//! - [`design`]: the RON design files ([`Tdcr`], [`Tdpcr`], [`Leg`]) and their validation;
+//! - [`rod`]: one leg, integrated with or without exact sensitivities;
+//! - [`tdcr`]: the single-TDCR solver ([`tdcr::solve_tdcr`]), tension or displacement control.
+//!
+//! ```
+//! use tdpcr::{Tdcr, tdcr::{TdcrSolver, TendonControl, TipWrench}};
+//! let robot = Tdcr::from_ron_file(concat!(env!("CARGO_MANIFEST_DIR"), "/designs/tdcr_one_segment.ron")).unwrap();
+//! let mut solver = TdcrSolver::new(&robot);
+//! let sol = solver
+//!     .solve(&TendonControl::Displacement(vec![-0.005, 0.005]), &TipWrench::default(), None)
+//!     .unwrap();
+//! assert!(sol.tensions[0] > 3.0 && sol.tensions[1] == 0.0);
+//! ```
+#![warn(missing_docs, rustdoc::broken_intra_doc_links)]
+// Tendon quantities live in parallel arrays indexed by k, as in the equations.
+#![allow(clippy::needless_range_loop)]
+
+pub mod design;
+pub mod error;
+pub mod linalg;
+pub mod newton;
+pub mod rod;
+pub mod tdcr;
+
+pub use design::{Leg, Tdcr, Tdpcr};
+pub use error::{DesignError, SolveError};

@@ -1,0 +1,123 @@
+//! Small dense linear algebra on preallocated storage (no allocation after `new`).
+
+use nalgebra::{DMatrix, DVector};
+
+/// LU factorization with partial pivoting of an n×n matrix, stored in place.
+#[derive(Debug, Clone)]
+pub struct DenseLu {
+    lu: DMatrix<f64>,
+    pivots: Vec<usize>,
+}
+
+/// The matrix is singular to working precision.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Singular {
+    /// Column where no usable pivot was found.
+    pub column: usize,
+}
+
+impl DenseLu {
+    /// Storage for n×n matrices.
+    pub fn new(n: usize) -> Self {
+        Self {
+            lu: DMatrix::zeros(n, n),
+            pivots: vec![0; n],
+        }
+    }
+
+    /// Factors a copy of `a`.
+    ///
+    /// # Errors
+    /// [`Singular`] when a pivot is zero or not finite.
+    ///
+    /// # Panics
+    /// If `a` is not of the size given to [`DenseLu::new`].
+    #[track_caller]
+    pub fn factor(&mut self, a: &DMatrix<f64>) -> Result<(), Singular> {
+        assert_eq!(
+            a.shape(),
+            self.lu.shape(),
+            "DenseLu::factor: matrix size mismatch"
+        );
+        self.lu.copy_from(a);
+        let n = a.nrows();
+        let lu = &mut self.lu;
+        for col in 0..n {
+            let mut best = col;
+            let mut best_abs = lu[(col, col)].abs();
+            for row in col + 1..n {
+                let v = lu[(row, col)].abs();
+                if v > best_abs {
+                    best = row;
+                    best_abs = v;
+                }
+            }
+            if best_abs == 0.0 || !best_abs.is_finite() {
+                return Err(Singular { column: col });
+            }
+            self.pivots[col] = best;
+            if best != col {
+                lu.swap_rows(best, col);
+            }
+            let pivot = lu[(col, col)];
+            for row in col + 1..n {
+                lu[(row, col)] /= pivot;
+            }
+            for c in col + 1..n {
+                let factor = lu[(col, c)];
+                if factor != 0.0 {
+                    for row in col + 1..n {
+                        let l = lu[(row, col)];
+                        lu[(row, c)] -= l * factor;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves A x = b in place (after a successful [`DenseLu::factor`]).
+    pub fn solve_in_place(&self, b: &mut DVector<f64>) {
+        let n = self.lu.nrows();
+        for i in 0..n {
+            b.swap_rows(i, self.pivots[i]);
+        }
+        for c in 0..n {
+            let bc = b[c];
+            if bc != 0.0 {
+                for r in c + 1..n {
+                    b[r] -= self.lu[(r, c)] * bc;
+                }
+            }
+        }
+        for c in (0..n).rev() {
+            b[c] /= self.lu[(c, c)];
+            let bc = b[c];
+            for r in 0..c {
+                b[r] -= self.lu[(r, c)] * bc;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solves_a_pivoting_system() {
+        let a = DMatrix::from_row_slice(3, 3, &[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0]);
+        let x = DVector::from_vec(vec![1.0, -2.0, 0.5]);
+        let mut b = &a * &x;
+        let mut lu = DenseLu::new(3);
+        lu.factor(&a).unwrap();
+        lu.solve_in_place(&mut b);
+        assert!((b - x).norm() < 1e-14);
+    }
+
+    #[test]
+    fn reports_singular_matrices() {
+        let a = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 4.0]);
+        assert_eq!(DenseLu::new(2).factor(&a), Err(Singular { column: 1 }));
+    }
+}

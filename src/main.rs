@@ -1,0 +1,212 @@
+//! The `tdpcr` command-line tool: a thin layer over the library (argument parsing,
+//! output formatting, exit codes). Exit codes: 0 success, 1 a solve failed, 2 bad input.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use tdpcr::error::Error;
+use tdpcr::tdcr::{TdcrSolver, TdcrState, TendonControl, TipWrench, rows};
+use tdpcr::{Tdcr, Tdpcr};
+
+/// Kinetostatics of tendon-driven (parallel) continuum robots with exact Jacobians.
+#[derive(Parser)]
+#[command(version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Solve one tendon-driven continuum robot (TDCR) under tendon tensions or displacements.
+    Tdcr(TdcrArgs),
+    /// Load and validate a design file (TDCR or TDPCR) and print a summary.
+    Validate(ValidateArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum, Default)]
+enum Format {
+    /// Human-readable text.
+    #[default]
+    Text,
+    /// One JSON object on stdout.
+    Json,
+}
+
+#[derive(clap::Args)]
+struct TdcrArgs {
+    /// Robot file (RON, `Tdcr(...)`), e.g. designs/tdcr_one_segment.ron.
+    robot: PathBuf,
+    /// Tendon tensions [N], one per tendon in file order, comma-separated.
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true, conflicts_with = "displacements", required_unless_present = "displacements")]
+    tensions: Option<Values>,
+    /// Tendon length changes Δℓ [m] (negative = pulled), one per tendon, comma-separated.
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
+    displacements: Option<Values>,
+    /// Tip force FX,FY,FZ [N], world frame.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    tip_force: Option<Vector3<f64>>,
+    /// Tip moment MX,MY,MZ [N·m], world frame.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    tip_moment: Option<Vector3<f64>>,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(clap::Args)]
+struct ValidateArgs {
+    /// Design file (RON): `Tdcr(...)` or `Tdpcr(...)`.
+    design: PathBuf,
+}
+
+/// A comma-separated list of numbers (one clap value).
+#[derive(Clone, Debug)]
+struct Values(Vec<f64>);
+
+fn parse_list(s: &str) -> Result<Values, String> {
+    parse_numbers(s).map(Values)
+}
+
+fn parse_numbers(s: &str) -> Result<Vec<f64>, String> {
+    s.split(',')
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("expected comma-separated numbers, got '{x}' in '{s}'"))
+        })
+        .collect()
+}
+
+fn parse_vec3(s: &str) -> Result<Vector3<f64>, String> {
+    let v = parse_numbers(s)?;
+    if v.len() != 3 {
+        return Err(format!(
+            "expected 3 comma-separated numbers, got {} in '{s}'",
+            v.len()
+        ));
+    }
+    Ok(Vector3::new(v[0], v[1], v[2]))
+}
+
+#[derive(Serialize)]
+struct TdcrOutput {
+    tip_position: [f64; 3],
+    tip_rotation: [[f64; 3]; 3],
+    tensions: Vec<f64>,
+    slacks: Vec<f64>,
+    iterations: usize,
+    residual_evaluations: usize,
+    residual_norm: f64,
+    /// Backbone positions at the disks [m], base excluded.
+    shape: Vec<[f64; 3]>,
+    shape_arcs: Vec<f64>,
+    state: TdcrState,
+}
+
+fn run_tdcr(args: &TdcrArgs) -> Result<(), Error> {
+    let robot = Tdcr::from_ron_file(&args.robot)?;
+    let control = match (&args.tensions, &args.displacements) {
+        (Some(t), _) => TendonControl::Tension(t.0.clone()),
+        (None, Some(d)) => TendonControl::Displacement(d.0.clone()),
+        (None, None) => unreachable!("clap requires one of --tensions, --displacements"),
+    };
+    let wrench = TipWrench {
+        force: args.tip_force.unwrap_or_default(),
+        moment: args.tip_moment.unwrap_or_default(),
+    };
+    let mut solver = TdcrSolver::new(&robot);
+    let sol = solver.solve(&control, &wrench, None)?;
+    let out = TdcrOutput {
+        tip_position: sol.tip.position.into(),
+        tip_rotation: rows(&sol.tip.rotation),
+        tensions: sol.tensions.clone(),
+        slacks: sol.slacks.clone(),
+        iterations: sol.report.iterations,
+        residual_evaluations: sol.report.residual_evaluations,
+        residual_norm: sol.report.residual_norm,
+        shape: sol.shape.positions[1..]
+            .iter()
+            .map(|p| (*p).into())
+            .collect(),
+        shape_arcs: sol.shape.arcs[1..].to_vec(),
+        state: sol.state.clone(),
+    };
+    match args.format {
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&out).expect("plain data serializes")
+        ),
+        Format::Text => {
+            let p = out.tip_position;
+            println!(
+                "tip position [m]   {:>12.6} {:>12.6} {:>12.6}",
+                p[0], p[1], p[2]
+            );
+            for (i, r) in out.tip_rotation.iter().enumerate() {
+                let label = if i == 0 { "tip rotation" } else { "" };
+                println!("{label:<18} {:>12.6} {:>12.6} {:>12.6}", r[0], r[1], r[2]);
+            }
+            for (k, (t, s)) in out.tensions.iter().zip(&out.slacks).enumerate() {
+                println!("tendon {k}: tension {t:.6} N, slack {:.6} mm", s * 1e3);
+            }
+            println!(
+                "converged in {} iterations ({} residual evaluations), residual norm {:.2e}",
+                out.iterations, out.residual_evaluations, out.residual_norm
+            );
+        }
+    }
+    Ok(())
+}
+
+fn run_validate(args: &ValidateArgs) -> Result<(), Error> {
+    let text = std::fs::read_to_string(&args.design).map_err(|source| tdpcr::DesignError::Io {
+        path: args.design.clone(),
+        source,
+    })?;
+    let source = args.design.display().to_string();
+    if text
+        .trim_start_matches(|c: char| c.is_whitespace())
+        .lines()
+        .any(|l| l.trim_start().starts_with("Tdpcr("))
+    {
+        let d = Tdpcr::from_ron_str(&text, &source)?;
+        println!(
+            "{source}: valid TDPCR, {}-DoF ({} tendons per leg), leg length {} m",
+            d.n_actuators(),
+            d.leg.tendons.len(),
+            d.leg.length
+        );
+    } else {
+        let r = Tdcr::from_ron_str(&text, &source)?;
+        println!(
+            "{source}: valid TDCR, {} tendons, length {} m, {} integration steps",
+            r.leg.tendons.len(),
+            r.leg.length,
+            r.leg.integration_steps
+        );
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Tdcr(a) => run_tdcr(a),
+        Command::Validate(a) => run_validate(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            match e {
+                Error::Solve(_) => ExitCode::from(1),
+                _ => ExitCode::from(2),
+            }
+        }
+    }
+}

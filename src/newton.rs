@@ -1,0 +1,415 @@
+//! Newton's method with an exact Jacobian, globalized by Powell's dogleg trust region in
+//! scaled variables (as MINPACK's `hybrj`).
+//!
+//! - Residual rows are weighted by the problem ([`NonlinearSystem::row_weights`]) so that
+//!   forces, moments and lengths are comparable in the merit function ½‖W F‖².
+//! - Unknowns are scaled by D_j = max over iterations of the weighted Jacobian's column
+//!   norms; the trust region is ‖D δ‖ ≤ Δ.
+//! - Inside the region the full Newton step J δ = −F is taken, so convergence near the
+//!   solution is quadratic. Far from it the step bends towards steepest descent.
+//!
+//! Stopping: converged when the Euclidean norm of the unweighted SI residual is at most
+//! [`NewtonSettings::tolerance`]; failure when the iteration limit is reached or the trust
+//! region shrinks below 1e-14 of ‖D x‖ (no further progress possible in double precision).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::SolveError;
+use crate::linalg::DenseLu;
+
+/// A square system of nonlinear equations F(x) = 0 with its exact Jacobian.
+pub trait NonlinearSystem {
+    /// Number of unknowns (= number of equations).
+    fn dim(&self) -> usize;
+
+    /// r = F(x) in SI units.
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] when x leads to a non-finite state; the solver treats it
+    /// as a rejected step.
+    fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError>;
+
+    /// r = F(x) and jac = ∂F/∂x.
+    ///
+    /// # Errors
+    /// As [`NonlinearSystem::residual`].
+    fn residual_and_jacobian(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: &mut DMatrix<f64>,
+    ) -> Result<(), SolveError>;
+
+    /// Weight of each row in the merit function (about 1 / its typical size).
+    fn row_weights(&self, w: &mut DVector<f64>);
+}
+
+/// Stopping and globalization settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonSettings {
+    /// Converged when ‖F(x)‖₂ (SI, unweighted) ≤ tolerance.
+    pub tolerance: f64,
+    /// Most Jacobian evaluations (Newton iterations).
+    pub max_iterations: usize,
+    /// Initial trust radius Δ₀ = factor · ‖D x₀‖ (MINPACK's `factor`).
+    pub initial_radius_factor: f64,
+}
+
+impl Default for NewtonSettings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-10,
+            max_iterations: 60,
+            initial_radius_factor: 100.0,
+        }
+    }
+}
+
+/// Work done by one solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonReport {
+    /// Newton iterations: accepted steps, each followed by one Jacobian evaluation.
+    pub iterations: usize,
+    /// Residual evaluations, including those of rejected trial steps.
+    pub residual_evaluations: usize,
+    /// Final ‖F(x)‖₂ (SI).
+    pub residual_norm: f64,
+}
+
+/// Buffers for [`solve`] on systems of one size.
+#[derive(Debug, Clone)]
+pub struct NewtonScratch {
+    r: DVector<f64>,
+    r_trial: DVector<f64>,
+    x_trial: DVector<f64>,
+    weights: DVector<f64>,
+    jac: DMatrix<f64>,
+    lu: DenseLu,
+    diag: DVector<f64>,
+    newton_step: DVector<f64>,
+    gradient: DVector<f64>,
+    step: DVector<f64>,
+    work: DVector<f64>,
+    history: Vec<f64>,
+}
+
+impl NewtonScratch {
+    /// Buffers for n unknowns and up to `max_iterations` iterations of history.
+    pub fn new(n: usize, max_iterations: usize) -> Self {
+        let v = || DVector::zeros(n);
+        Self {
+            r: v(),
+            r_trial: v(),
+            x_trial: v(),
+            weights: v(),
+            jac: DMatrix::zeros(n, n),
+            lu: DenseLu::new(n),
+            diag: v(),
+            newton_step: v(),
+            gradient: v(),
+            step: v(),
+            work: v(),
+            history: Vec::with_capacity(max_iterations + 1),
+        }
+    }
+
+    /// ‖F‖₂ after each accepted iterate of the last solve (the first is the start).
+    pub fn residual_history(&self) -> &[f64] {
+        &self.history
+    }
+
+    /// The Jacobian at the final iterate of the last solve.
+    pub fn jacobian(&self) -> &DMatrix<f64> {
+        &self.jac
+    }
+
+    /// The residual F at the final iterate of the last solve (SI).
+    pub fn residual(&self) -> &DVector<f64> {
+        &self.r
+    }
+
+    /// Size the buffers were made for.
+    pub fn dim(&self) -> usize {
+        self.r.len()
+    }
+}
+
+fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
+    r.iter().zip(w.iter()).map(|(a, b)| (a * b) * (a * b)).sum()
+}
+
+/// Solves F(x) = 0 from the start in `x` (overwritten with the solution).
+///
+/// # Errors
+/// [`SolveError::NotConverged`] with the residual norm and iteration count, or
+/// [`SolveError::NonFinite`] if F cannot be evaluated at the start.
+///
+/// # Panics
+/// If `scratch` or `x` do not match `system.dim()` (a programming error).
+#[track_caller]
+pub fn solve<S: NonlinearSystem>(
+    system: &mut S,
+    x: &mut DVector<f64>,
+    settings: &NewtonSettings,
+    sc: &mut NewtonScratch,
+) -> Result<NewtonReport, SolveError> {
+    let n = system.dim();
+    assert!(
+        sc.dim() == n && x.len() == n,
+        "newton::solve: size mismatch"
+    );
+    system.row_weights(&mut sc.weights);
+    sc.history.clear();
+    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+    let mut evaluations = 1;
+    let mut iterations = 0;
+    let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
+    let mut norm = sc.r.norm();
+    sc.history.push(norm);
+    let mut radius = 0.0;
+    let not_converged = |iterations, norm, reason| SolveError::NotConverged {
+        iterations,
+        residual_norm: norm,
+        tolerance: settings.tolerance,
+        reason,
+    };
+    loop {
+        if norm <= settings.tolerance {
+            return Ok(NewtonReport {
+                iterations,
+                residual_evaluations: evaluations,
+                residual_norm: norm,
+            });
+        }
+        if iterations >= settings.max_iterations {
+            return Err(not_converged(iterations, norm, "iteration limit reached"));
+        }
+        // Weighted Jacobian rows, column scaling, gradient, Newton step.
+        for i in 0..n {
+            let w = sc.weights[i];
+            for j in 0..n {
+                sc.jac[(i, j)] *= w;
+            }
+            sc.work[i] = sc.r[i] * w;
+        }
+        for j in 0..n {
+            let c = sc.jac.column(j).norm();
+            let c = if c > 0.0 { c } else { 1.0 };
+            sc.diag[j] = if iterations == 0 {
+                c
+            } else {
+                sc.diag[j].max(c)
+            };
+        }
+        if iterations == 0 {
+            let dx = x.component_mul(&sc.diag).norm();
+            radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
+        }
+        sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
+        let newton_ok = sc.lu.factor(&sc.jac).is_ok() && {
+            sc.newton_step.copy_from(&sc.work);
+            sc.newton_step.neg_mut();
+            sc.lu.solve_in_place(&mut sc.newton_step);
+            sc.newton_step.iter().all(|v| v.is_finite())
+        };
+        let newton_len = if newton_ok {
+            sc.newton_step.component_mul(&sc.diag).norm()
+        } else {
+            f64::INFINITY
+        };
+        // Cauchy point along s = −D⁻² g.
+        let g_scaled_sq: f64 = sc
+            .gradient
+            .iter()
+            .zip(sc.diag.iter())
+            .map(|(g, d)| (g / d).powi(2))
+            .sum();
+        let mut js_sq = 0.0;
+        for i in 0..n {
+            let mut acc = 0.0;
+            for j in 0..n {
+                acc -= sc.jac[(i, j)] * sc.gradient[j] / (sc.diag[j] * sc.diag[j]);
+            }
+            js_sq += acc * acc;
+        }
+        let cauchy_t = if js_sq > 0.0 {
+            g_scaled_sq / js_sq
+        } else {
+            0.0
+        };
+        let s_len = g_scaled_sq.sqrt();
+        // Inner loop: shrink the region until a step is accepted.
+        loop {
+            if newton_ok && newton_len <= radius {
+                sc.step.copy_from(&sc.newton_step);
+            } else if cauchy_t * s_len >= radius || !newton_ok {
+                let scale = if s_len > 0.0 {
+                    radius.min(cauchy_t * s_len) / s_len
+                } else {
+                    0.0
+                };
+                for j in 0..n {
+                    sc.step[j] = -scale * sc.gradient[j] / (sc.diag[j] * sc.diag[j]);
+                }
+            } else {
+                // Dogleg: c + β (N − c) with ‖D(c + β(N − c))‖ = Δ.
+                let mut a = 0.0;
+                let mut b = 0.0;
+                let mut c0 = 0.0;
+                for j in 0..n {
+                    let cj = -cauchy_t * sc.gradient[j] / (sc.diag[j] * sc.diag[j]);
+                    let dj = sc.newton_step[j] - cj;
+                    sc.work[j] = cj;
+                    a += (sc.diag[j] * dj).powi(2);
+                    b += sc.diag[j] * sc.diag[j] * cj * dj;
+                    c0 += (sc.diag[j] * cj).powi(2);
+                }
+                let disc = (b * b - a * (c0 - radius * radius)).max(0.0);
+                let beta = ((-b + disc.sqrt()) / a).clamp(0.0, 1.0);
+                for j in 0..n {
+                    sc.step[j] = sc.work[j] + beta * (sc.newton_step[j] - sc.work[j]);
+                }
+            }
+            let step_len = sc.step.component_mul(&sc.diag).norm();
+            // Predicted reduction of the weighted merit from the linear model.
+            let mut predicted_sq = 0.0;
+            for i in 0..n {
+                let mut acc = sc.r[i] * sc.weights[i];
+                for j in 0..n {
+                    acc += sc.jac[(i, j)] * sc.step[j];
+                }
+                predicted_sq += acc * acc;
+            }
+            let predicted = merit - predicted_sq;
+            sc.x_trial.copy_from(x);
+            sc.x_trial += &sc.step;
+            evaluations += 1;
+            let actual = match system.residual(&sc.x_trial, &mut sc.r_trial) {
+                Ok(()) if sc.r_trial.iter().all(|v| v.is_finite()) => {
+                    merit - weighted_norm_sq(&sc.r_trial, &sc.weights)
+                }
+                _ => f64::NEG_INFINITY,
+            };
+            let ratio = if predicted > 0.0 {
+                actual / predicted
+            } else {
+                -1.0
+            };
+            if ratio < 0.25 {
+                radius = 0.25 * step_len.min(radius);
+            } else if ratio > 0.75 {
+                radius = radius.max(2.0 * step_len);
+            }
+            if ratio > 1e-4 && actual > 0.0 {
+                x.copy_from(&sc.x_trial);
+                break;
+            }
+            // A rejected step whose residual is already within tolerance still counts.
+            if actual.is_finite() && sc.r_trial.norm() <= settings.tolerance {
+                x.copy_from(&sc.x_trial);
+                break;
+            }
+            if radius <= 1e-14 * x.component_mul(&sc.diag).norm().max(1e-300) {
+                return Err(not_converged(
+                    iterations,
+                    norm,
+                    "trust region collapsed (no further progress)",
+                ));
+            }
+        }
+        iterations += 1;
+        evaluations += 1;
+        system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+        merit = weighted_norm_sq(&sc.r, &sc.weights);
+        norm = sc.r.norm();
+        sc.history.push(norm);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Powell's badly scaled function: 1e4 x y = 1, e^{-x} + e^{-y} = 1.0001.
+    struct Powell;
+
+    impl NonlinearSystem for Powell {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = 1e4 * x[0] * x[1] - 1.0;
+            r[1] = (-x[0]).exp() + (-x[1]).exp() - 1.0001;
+            Ok(())
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.residual(x, r)?;
+            j[(0, 0)] = 1e4 * x[1];
+            j[(0, 1)] = 1e4 * x[0];
+            j[(1, 0)] = -(-x[0]).exp();
+            j[(1, 1)] = -(-x[1]).exp();
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+    }
+
+    #[test]
+    fn solves_powells_badly_scaled_function_from_the_standard_start() {
+        let mut x = DVector::from_vec(vec![0.0, 1.0]);
+        let mut sc = NewtonScratch::new(2, 200);
+        let settings = NewtonSettings {
+            tolerance: 1e-12,
+            max_iterations: 200,
+            ..Default::default()
+        };
+        let report = solve(&mut Powell, &mut x, &settings, &mut sc).unwrap();
+        assert!(report.residual_norm <= 1e-12);
+        assert!((x[0] - 1.098_159_3e-5).abs() < 1e-10, "x = {x}");
+    }
+
+    #[test]
+    fn reports_failure_with_residual_and_iterations() {
+        struct NoRoot;
+        impl NonlinearSystem for NoRoot {
+            fn dim(&self) -> usize {
+                1
+            }
+            fn residual(
+                &mut self,
+                x: &DVector<f64>,
+                r: &mut DVector<f64>,
+            ) -> Result<(), SolveError> {
+                r[0] = x[0] * x[0] + 1.0;
+                Ok(())
+            }
+            fn residual_and_jacobian(
+                &mut self,
+                x: &DVector<f64>,
+                r: &mut DVector<f64>,
+                j: &mut DMatrix<f64>,
+            ) -> Result<(), SolveError> {
+                self.residual(x, r)?;
+                j[(0, 0)] = 2.0 * x[0];
+                Ok(())
+            }
+            fn row_weights(&self, w: &mut DVector<f64>) {
+                w.fill(1.0);
+            }
+        }
+        let mut x = DVector::from_vec(vec![3.0]);
+        let mut sc = NewtonScratch::new(1, 20);
+        let err = solve(&mut NoRoot, &mut x, &NewtonSettings::default(), &mut sc).unwrap_err();
+        match err {
+            SolveError::NotConverged { residual_norm, .. } => assert!(residual_norm >= 1.0),
+            e => panic!("unexpected {e}"),
+        }
+        assert!(err.to_string().contains("did not converge: residual norm"));
+    }
+}

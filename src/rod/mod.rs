@@ -1,0 +1,12 @@
+//! One leg: the tendon-driven Cosserat rod (MODEL.md §2) and its exact sensitivities (§5).
+
+pub mod integrate;
+pub mod model;
+pub mod rhs;
+pub mod tendon;
+
+pub use integrate::{
+    LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, MAX_DIRECTIONS, integrate_leg,
+    integrate_leg_with_sensitivities,
+};
+pub use model::{Frame, LegModel};

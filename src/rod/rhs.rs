@@ -1,0 +1,287 @@
+//! The rod ODE right-hand side (MODEL.md §2, eqs. 3–8) and its tangent (variational
+//! equation), sharing one Cholesky factorization of the 6×6 strain system.
+//!
+//! Body-frame strains v, u are state variables. With tendon k at offset r_k, tension τ_k,
+//! path tangent w_k = v + u × r_k, ℓ_k = |w_k|, t_k = w_k / ℓ_k, the tendon matrix of eq. (5)
+//! is A_k = −τ_k ŵ_k² / ℓ_k³ = c_k (I − t_k t_kᵀ) with c_k = τ_k / ℓ_k, and the strain
+//! system reads, with P_k = [I, −r̂_k]:
+//!
+//! (K + Σ_k P_kᵀ A_k P_k) [v'; u'] = [−u × K_se(v − e_z) − Rᵀ f − Σ a_k;
+//!                                    −u × K_bt u − v × K_se(v − e_z) − Σ r_k × a_k],
+//!
+//! a_k = A_k (u × w_k). The matrix is symmetric positive definite for τ ≥ 0, so it is
+//! factored by Cholesky. Writing the system as g(state, x) = 0 with x = [v'; u'], the
+//! tangent is dx = −M⁻¹ ∂g/∂state · dstate, where every tendon enters through
+//! F_k = A_k y_k, y_k = v' + u' × r_k + u × w_k.
+
+use nalgebra::{Cholesky, Matrix3, Matrix6, U6, Vector3, Vector6};
+
+use crate::design::MAX_TENDONS;
+use crate::error::SolveError;
+use crate::rod::model::LegModel;
+
+/// The rod state (or its derivative, or a tangent): position p [m], rotation R, strains
+/// v, u [–, 1/m] and tendon path lengths s_k [m].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RodState {
+    /// Backbone position p (world frame).
+    pub p: Vector3<f64>,
+    /// Backbone orientation R (body to world).
+    pub r: Matrix3<f64>,
+    /// Shear/extension strain v (body frame).
+    pub v: Vector3<f64>,
+    /// Bending/torsion strain u (body frame).
+    pub u: Vector3<f64>,
+    /// Tendon path lengths s_k (entries beyond n_t unused).
+    pub s: [f64; MAX_TENDONS],
+}
+
+impl RodState {
+    /// All zeros.
+    pub fn zeros() -> Self {
+        Self {
+            p: Vector3::zeros(),
+            r: Matrix3::zeros(),
+            v: Vector3::zeros(),
+            u: Vector3::zeros(),
+            s: [0.0; MAX_TENDONS],
+        }
+    }
+
+    /// self = y + a·k, over the first `nt` tendon lengths.
+    #[inline]
+    pub fn set_axpy(&mut self, y: &Self, a: f64, k: &Self, nt: usize) {
+        self.p = y.p + k.p * a;
+        self.r = y.r + k.r * a;
+        self.v = y.v + k.v * a;
+        self.u = y.u + k.u * a;
+        for i in 0..nt {
+            self.s[i] = y.s[i] + a * k.s[i];
+        }
+    }
+
+    /// self += a·k, over the first `nt` tendon lengths.
+    #[inline]
+    pub fn axpy(&mut self, a: f64, k: &Self, nt: usize) {
+        self.p += k.p * a;
+        self.r += k.r * a;
+        self.v += k.v * a;
+        self.u += k.u * a;
+        for i in 0..nt {
+            self.s[i] += a * k.s[i];
+        }
+    }
+}
+
+/// Skew-symmetric matrix x̂ with x̂ y = x × y.
+#[inline]
+pub fn hat(x: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -x.z, x.y, x.z, 0.0, -x.x, -x.y, x.x, 0.0)
+}
+
+/// Per-tendon quantities of one evaluation, kept for the tangent.
+#[derive(Debug, Clone, Copy)]
+struct TendonPoint {
+    w: Vector3<f64>,
+    len: f64,
+    t: Vector3<f64>,
+    /// c = τ / ℓ [N/m].
+    c: f64,
+    /// y = v' + u' × r + u × w.
+    y: Vector3<f64>,
+    /// t · y.
+    ty: f64,
+    /// y − t (t · y), so that A y = c q.
+    q: Vector3<f64>,
+}
+
+/// One evaluation of the right-hand side: the point, its factorization and what the
+/// tangent reuses.
+#[derive(Debug, Clone)]
+pub struct Stage {
+    r: Matrix3<f64>,
+    v: Vector3<f64>,
+    u: Vector3<f64>,
+    /// K_se (v − e_z): body-frame internal force [N].
+    n_body: Vector3<f64>,
+    /// K_bt u: body-frame internal moment [N·m].
+    m_body: Vector3<f64>,
+    chol: Cholesky<f64, U6>,
+    tendons: [TendonPoint; MAX_TENDONS],
+    active: u32,
+}
+
+impl Stage {
+    /// A stage with placeholder values (overwritten by the first [`Stage::eval`]).
+    pub fn new() -> Self {
+        let tp = TendonPoint {
+            w: Vector3::zeros(),
+            len: 1.0,
+            t: Vector3::zeros(),
+            c: 0.0,
+            y: Vector3::zeros(),
+            ty: 0.0,
+            q: Vector3::zeros(),
+        };
+        Self {
+            r: Matrix3::identity(),
+            v: Vector3::zeros(),
+            u: Vector3::zeros(),
+            n_body: Vector3::zeros(),
+            m_body: Vector3::zeros(),
+            chol: Cholesky::new_unchecked(Matrix6::identity()),
+            tendons: [tp; MAX_TENDONS],
+            active: 0,
+        }
+    }
+
+    /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` [N],
+    /// writing the derivative to `out` and keeping what [`Stage::tangent`] needs.
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not
+    /// positive definite (which only a non-finite or absurd state can cause).
+    pub fn eval(
+        &mut self,
+        model: &LegModel,
+        y: &RodState,
+        tau: &[f64; MAX_TENDONS],
+        active: u32,
+        out: &mut RodState,
+    ) -> Result<(), SolveError> {
+        let (v, u) = (y.v, y.u);
+        let n_body = model.k_se.component_mul(&(v - Vector3::z()));
+        let m_body = model.k_bt.component_mul(&u);
+        let mut mat = Matrix6::from_diagonal(&Vector6::new(
+            model.k_se.x,
+            model.k_se.y,
+            model.k_se.z,
+            model.k_bt.x,
+            model.k_bt.y,
+            model.k_bt.z,
+        ));
+        let mut rhs_v = -u.cross(&n_body) - y.r.tr_mul(&model.weight_per_length);
+        let mut rhs_u = -u.cross(&m_body) - v.cross(&n_body);
+        for k in 0..model.n_tendons {
+            if active & (1 << k) == 0 {
+                continue;
+            }
+            let r_k = &model.tendon_offsets[k];
+            let w = v + u.cross(r_k);
+            let len = w.norm();
+            let t = w / len;
+            let c = tau[k] / len;
+            // A = c (I − t tᵀ); blocks of Pᵀ A P with P = [I, −r̂].
+            let a = (Matrix3::identity() - t * t.transpose()) * c;
+            let rh = hat(r_k);
+            let a_rh = a * rh;
+            let mut block = mat.fixed_view_mut::<3, 3>(0, 0);
+            block += a;
+            let mut block = mat.fixed_view_mut::<3, 3>(0, 3);
+            block -= a_rh;
+            let mut block = mat.fixed_view_mut::<3, 3>(3, 0);
+            block += a_rh.transpose();
+            let mut block = mat.fixed_view_mut::<3, 3>(3, 3);
+            block -= rh * a_rh;
+            let z = u.cross(&w);
+            let a_z = (z - t * t.dot(&z)) * c;
+            rhs_v -= a_z;
+            rhs_u -= r_k.cross(&a_z);
+            // y and q need x; store z in y for now.
+            self.tendons[k] = TendonPoint {
+                w,
+                len,
+                t,
+                c,
+                y: z,
+                ty: 0.0,
+                q: Vector3::zeros(),
+            };
+        }
+        let chol = Cholesky::new(mat).ok_or(SolveError::NonFinite {
+            stage: "rod strain system (eq. 5)",
+        })?;
+        let mut x = Vector6::new(rhs_v.x, rhs_v.y, rhs_v.z, rhs_u.x, rhs_u.y, rhs_u.z);
+        chol.solve_mut(&mut x);
+        let dv = Vector3::new(x[0], x[1], x[2]);
+        let du = Vector3::new(x[3], x[4], x[5]);
+        if !(dv.iter().chain(du.iter()).all(|e| e.is_finite())) {
+            return Err(SolveError::NonFinite {
+                stage: "rod strain derivatives (eq. 5)",
+            });
+        }
+        out.s = [0.0; MAX_TENDONS];
+        for k in 0..model.n_tendons {
+            if active & (1 << k) == 0 {
+                continue;
+            }
+            let tp = &mut self.tendons[k];
+            tp.y += dv + du.cross(&model.tendon_offsets[k]);
+            tp.ty = tp.t.dot(&tp.y);
+            tp.q = tp.y - tp.t * tp.ty;
+            out.s[k] = tp.len;
+        }
+        out.p = y.r * v;
+        out.r = y.r * hat(&u);
+        out.v = dv;
+        out.u = du;
+        self.r = y.r;
+        self.v = v;
+        self.u = u;
+        self.n_body = n_body;
+        self.m_body = m_body;
+        self.chol = chol;
+        self.active = active;
+        Ok(())
+    }
+
+    /// The tangent of the last [`Stage::eval`] in direction `dy`, with tension derivative
+    /// `dtau` = (tendon index, dτ) for a tension direction or `None`.
+    pub fn tangent(
+        &self,
+        model: &LegModel,
+        dy: &RodState,
+        dtau: Option<usize>,
+        out: &mut RodState,
+    ) {
+        let (v, u) = (&self.v, &self.u);
+        let (dv, du) = (&dy.v, &dy.u);
+        let k_se_dv = model.k_se.component_mul(dv);
+        let k_bt_du = model.k_bt.component_mul(du);
+        let mut g_v =
+            dy.r.tr_mul(&model.weight_per_length) + du.cross(&self.n_body) + u.cross(&k_se_dv);
+        let mut g_u =
+            du.cross(&self.m_body) + u.cross(&k_bt_du) + dv.cross(&self.n_body) + v.cross(&k_se_dv);
+        out.s = [0.0; MAX_TENDONS];
+        for k in 0..model.n_tendons {
+            if self.active & (1 << k) == 0 {
+                continue;
+            }
+            let tp = &self.tendons[k];
+            let r_k = &model.tendon_offsets[k];
+            let dw = dv + du.cross(r_k);
+            let dlen = tp.t.dot(&dw);
+            let dt = (dw - tp.t * dlen) / tp.len;
+            let dyk = du.cross(&tp.w) + u.cross(&dw);
+            let dtau_k = if dtau == Some(k) { 1.0 } else { 0.0 };
+            let dc = (dtau_k - tp.c * dlen) / tp.len;
+            let df =
+                tp.q * dc + (dyk - dt * tp.ty - tp.t * (dt.dot(&tp.y) + tp.t.dot(&dyk))) * tp.c;
+            g_v += df;
+            g_u += r_k.cross(&df);
+            out.s[k] = dlen;
+        }
+        let mut dx = Vector6::new(-g_v.x, -g_v.y, -g_v.z, -g_u.x, -g_u.y, -g_u.z);
+        self.chol.solve_mut(&mut dx);
+        out.p = dy.r * v + self.r * dv;
+        out.r = dy.r * hat(u) + self.r * hat(du);
+        out.v = Vector3::new(dx[0], dx[1], dx[2]);
+        out.u = Vector3::new(dx[3], dx[4], dx[5]);
+    }
+}
+
+impl Default for Stage {
+    fn default() -> Self {
+        Self::new()
+    }
+}

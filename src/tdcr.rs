@@ -1,0 +1,500 @@
+//! One tendon-driven continuum robot alone (MODEL.md §8): base fixed at the world origin,
+//! tip loaded by a wrench, tendons tension- or displacement-controlled.
+//!
+//! Unknowns, in order: γ_k for each tendon (displacement control only), u(0) (3), v(0) (3).
+//! Residual rows, in order: tip force n(L) − Σ f_t,k − F (3, N), tip moment
+//! m(L) − Σ l_t,k − M (3, N·m), then per tendon the length constraint (eq. 15, m,
+//! displacement control only): s_k(end_k) + Θ_k − (1 + τ_k/(EA)_t)·end_k − Δℓ_k.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::design::{MAX_TENDONS, Tdcr};
+use crate::error::{Error, SolveError, Violations};
+use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
+use crate::rod::tendon::{gamma_from, slack, slack_derivative, tension, tension_derivative};
+use crate::rod::{
+    Frame, LegEnd, LegModel, LegScratch, LegSensitivities, LegShape, LegStart, integrate_leg,
+    integrate_leg_with_sensitivities,
+};
+
+/// How the tendons are driven (one value per tendon, in file order).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TendonControl {
+    /// Given tensions τ_k [N], each ≥ 0.
+    Tension(Vec<f64>),
+    /// Given length changes Δℓ_k [m] (negative = pulled); tensions are solved for.
+    Displacement(Vec<f64>),
+}
+
+/// External wrench at the tip, world frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TipWrench {
+    /// Force F [N].
+    pub force: Vector3<f64>,
+    /// Moment M [N·m].
+    pub moment: Vector3<f64>,
+}
+
+/// The unknowns of a solved robot; pass back as a warm start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TdcrState {
+    /// u(0) [1/m].
+    pub u0: [f64; 3],
+    /// v(0) [–].
+    pub v0: [f64; 3],
+    /// γ_k per tendon (τ = γ² if γ ≥ 0, slack Θ = γ² otherwise); empty in tension control.
+    pub gammas: Vec<f64>,
+}
+
+/// A converged solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TdcrSolution {
+    /// Tip frame.
+    pub tip: Frame,
+    /// Tension of each tendon [N].
+    pub tensions: Vec<f64>,
+    /// Slack Θ_k of each tendon [m] (0 when taut; always 0 in tension control).
+    pub slacks: Vec<f64>,
+    /// The solved unknowns.
+    pub state: TdcrState,
+    /// Newton iterations and residual.
+    pub report: NewtonReport,
+    /// ‖F‖₂ after each iteration, starting with the initial guess.
+    pub residual_history: Vec<f64>,
+    /// Frames at the base and every disk.
+    pub shape: LegShape,
+}
+
+/// Solves single-TDCR problems; holds every buffer, so repeated solves do not allocate
+/// inside the Newton loop.
+#[derive(Debug, Clone)]
+pub struct TdcrSolver {
+    model: LegModel,
+    leg: LegScratch,
+    sens: LegSensitivities,
+    newton: [NewtonScratch; 2],
+    /// Newton settings (tolerance on the SI residual norm, iteration limit).
+    pub settings: NewtonSettings,
+}
+
+impl TdcrSolver {
+    /// A solver for a validated robot.
+    pub fn new(robot: &Tdcr) -> Self {
+        let (gx, gy, gz) = robot.gravity;
+        let model = LegModel::new(&robot.leg, Vector3::new(gx, gy, gz));
+        let settings = NewtonSettings::default();
+        let nt = model.n_tendons;
+        Self {
+            leg: LegScratch::new(),
+            sens: LegSensitivities::new(6 + nt),
+            newton: [
+                NewtonScratch::new(6, settings.max_iterations),
+                NewtonScratch::new(6 + nt, settings.max_iterations),
+            ],
+            model,
+            settings,
+        }
+    }
+
+    /// The leg model.
+    pub fn model(&self) -> &LegModel {
+        &self.model
+    }
+
+    /// Checks the control values: count, finiteness, non-negative tensions.
+    fn check_control(&self, control: &TendonControl, wrench: &TipWrench) -> Result<(), Error> {
+        let mut v = Violations::default();
+        let nt = self.model.n_tendons;
+        let (name, values, unit) = match control {
+            TendonControl::Tension(t) => ("tensions", t, "N"),
+            TendonControl::Displacement(d) => ("displacements", d, "m"),
+        };
+        if matches!(control, TendonControl::Displacement(_)) && nt == 0 {
+            v.push("displacements", "given", "a robot with at least one tendon");
+        } else if values.len() != nt {
+            v.push(
+                name,
+                format!("{} values", values.len()),
+                &format!("{nt} values, one per tendon"),
+            );
+        }
+        for (k, &x) in values.iter().enumerate() {
+            let negative_tension = matches!(control, TendonControl::Tension(_)) && x < 0.0;
+            if !x.is_finite() || negative_tension {
+                let rule = if negative_tension {
+                    format!(">= 0 {unit}")
+                } else {
+                    format!("finite [{unit}]")
+                };
+                v.push(format!("{name}[{k}]"), x, &rule);
+            }
+        }
+        for (what, vec) in [("tip_force", &wrench.force), ("tip_moment", &wrench.moment)] {
+            for (i, x) in vec.iter().enumerate() {
+                if !x.is_finite() {
+                    v.push(format!("{what}[{i}]"), x, "a finite number");
+                }
+            }
+        }
+        if v.0.is_empty() {
+            Ok(())
+        } else {
+            Err(Error::Input(v))
+        }
+    }
+
+    /// Solves for the equilibrium under `control` and the tip `wrench`, starting from
+    /// `init` if given (and of the right mode), else from the cold guess of MODEL.md §9.
+    ///
+    /// # Errors
+    /// [`Error::Input`] for bad control values; [`Error::Solve`] if Newton fails, with
+    /// the residual norm and iteration count.
+    pub fn solve(
+        &mut self,
+        control: &TendonControl,
+        wrench: &TipWrench,
+        init: Option<&TdcrState>,
+    ) -> Result<TdcrSolution, Error> {
+        self.check_control(control, wrench)?;
+        let nt = self.model.n_tendons;
+        let displacement = matches!(control, TendonControl::Displacement(_));
+        let n_gamma = if displacement { nt } else { 0 };
+        let mut x = match init {
+            Some(s) if s.gammas.len() == n_gamma => pack(s),
+            _ => pack(&cold_guess(&self.model, control, wrench)),
+        };
+        let mut system = TdcrSystem {
+            model: &self.model,
+            leg: &mut self.leg,
+            sens: &mut self.sens,
+            control,
+            wrench,
+            end: LegEnd::zeros(),
+        };
+        let scratch = &mut self.newton[usize::from(displacement)];
+        let report = newton::solve(&mut system, &mut x, &self.settings, scratch)?;
+        let state = unpack(&x, n_gamma);
+        let tensions: Vec<f64> = match control {
+            TendonControl::Tension(t) => t.clone(),
+            TendonControl::Displacement(_) => state.gammas.iter().map(|&g| tension(g)).collect(),
+        };
+        let slacks = (0..nt)
+            .map(|k| state.gammas.get(k).map_or(0.0, |&g| slack(g)))
+            .collect();
+        let mut shape = LegShape::with_capacity(self.model.n_disks);
+        let mut end = LegEnd::zeros();
+        integrate_leg(
+            &self.model,
+            &leg_start(&state, &tensions),
+            &mut self.leg,
+            &mut end,
+            Some(&mut shape),
+        )?;
+        Ok(TdcrSolution {
+            tip: Frame {
+                position: end.p,
+                rotation: end.r,
+            },
+            tensions,
+            slacks,
+            state,
+            report,
+            residual_history: scratch.residual_history().to_vec(),
+            shape,
+        })
+    }
+
+    /// The residual and its exact Jacobian at `state` (for tests and diagnostics).
+    ///
+    /// # Errors
+    /// As [`TdcrSolver::solve`], for bad input or a non-finite integration.
+    pub fn residual_and_jacobian(
+        &mut self,
+        control: &TendonControl,
+        wrench: &TipWrench,
+        state: &TdcrState,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), Error> {
+        self.check_control(control, wrench)?;
+        let x = pack(state);
+        let n = x.len();
+        let mut r = DVector::zeros(n);
+        let mut j = DMatrix::zeros(n, n);
+        let mut system = TdcrSystem {
+            model: &self.model,
+            leg: &mut self.leg,
+            sens: &mut self.sens,
+            control,
+            wrench,
+            end: LegEnd::zeros(),
+        };
+        system.residual_and_jacobian(&x, &mut r, &mut j)?;
+        Ok((r, j))
+    }
+
+    /// The residual alone at `state`.
+    ///
+    /// # Errors
+    /// As [`TdcrSolver::residual_and_jacobian`].
+    pub fn residual(
+        &mut self,
+        control: &TendonControl,
+        wrench: &TipWrench,
+        state: &TdcrState,
+    ) -> Result<DVector<f64>, Error> {
+        self.check_control(control, wrench)?;
+        let x = pack(state);
+        let mut r = DVector::zeros(x.len());
+        let mut system = TdcrSystem {
+            model: &self.model,
+            leg: &mut self.leg,
+            sens: &mut self.sens,
+            control,
+            wrench,
+            end: LegEnd::zeros(),
+        };
+        system.residual(&x, &mut r)?;
+        Ok(r)
+    }
+}
+
+fn pack(s: &TdcrState) -> DVector<f64> {
+    DVector::from_iterator(
+        s.gammas.len() + 6,
+        s.gammas
+            .iter()
+            .chain(s.u0.iter())
+            .chain(s.v0.iter())
+            .copied(),
+    )
+}
+
+fn unpack(x: &DVector<f64>, n_gamma: usize) -> TdcrState {
+    let o = n_gamma;
+    TdcrState {
+        u0: [x[o], x[o + 1], x[o + 2]],
+        v0: [x[o + 3], x[o + 4], x[o + 5]],
+        gammas: x.rows(0, n_gamma).iter().copied().collect(),
+    }
+}
+
+fn leg_start(state: &TdcrState, tensions: &[f64]) -> LegStart {
+    let mut t = [0.0; MAX_TENDONS];
+    t[..tensions.len()].copy_from_slice(tensions);
+    LegStart {
+        base: Frame::identity(),
+        u0: Vector3::from(state.u0),
+        v0: Vector3::from(state.v0),
+        tensions: t,
+    }
+}
+
+/// The cold guess of MODEL.md §9: tensions from a linear constant-curvature model with
+/// slack (a small linear complementarity problem), strains at the base that balance those
+/// tensions and the external load on a straight rod.
+pub fn cold_guess(model: &LegModel, control: &TendonControl, wrench: &TipWrench) -> TdcrState {
+    let nt = model.n_tendons;
+    let (tensions, gammas) = match control {
+        TendonControl::Tension(t) => (t.clone(), Vec::new()),
+        TendonControl::Displacement(d) => {
+            let (tau, theta) = constant_curvature_tensions(model, d);
+            let g = (0..nt).map(|k| gamma_from(tau[k], theta[k])).collect();
+            (tau, g)
+        }
+    };
+    let len = model.length;
+    let weight = model.weight_per_length * len;
+    let axis = Vector3::z();
+    let mut n0 = wrench.force + weight;
+    let mut m0 =
+        wrench.moment + (axis * len).cross(&wrench.force) + (axis * (len / 2.0)).cross(&weight);
+    for k in 0..nt {
+        n0 -= axis * tensions[k];
+        m0 -= model.tendon_offsets[k].cross(&axis) * tensions[k];
+    }
+    let v0 = axis + n0.component_div(&model.k_se);
+    let u0 = m0.component_div(&model.k_bt);
+    TdcrState {
+        u0: u0.into(),
+        v0: v0.into(),
+        gammas,
+    }
+}
+
+/// Tensions τ ≥ 0 and slacks Θ ≥ 0 with Θ = Δℓ + P τ and τ_k Θ_k = 0, where P is the
+/// compliance of the tendon lengths of a straight rod bent at constant curvature per
+/// segment: P_kl = (r_k · r_l / EI + 1/(EA)) min(e_k, e_l) + δ_kl e_k/(EA)_t.
+/// Solved by projected Gauss–Seidel (P is symmetric positive definite).
+fn constant_curvature_tensions(model: &LegModel, displacements: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let nt = model.n_tendons;
+    let ei = model.bending_stiffness();
+    let ea = model.axial_stiffness();
+    let p = DMatrix::from_fn(nt, nt, |k, l| {
+        let (rk, rl) = (&model.tendon_offsets[k], &model.tendon_offsets[l]);
+        let common = model.tendon_ends[k].min(model.tendon_ends[l]);
+        let stretch = if k == l {
+            model.tendon_ends[k] / model.tendon_stiffness
+        } else {
+            0.0
+        };
+        (rk.dot(rl) / ei + 1.0 / ea) * common + stretch
+    });
+    let mut tau = vec![0.0; nt];
+    for _ in 0..2000 {
+        let mut change: f64 = 0.0;
+        for k in 0..nt {
+            let off: f64 = (0..nt)
+                .filter(|&l| l != k)
+                .map(|l| p[(k, l)] * tau[l])
+                .sum();
+            let new = ((-displacements[k] - off) / p[(k, k)]).max(0.0);
+            change = change.max((new - tau[k]).abs());
+            tau[k] = new;
+        }
+        if change < 1e-13 {
+            break;
+        }
+    }
+    let theta = (0..nt)
+        .map(|k| (displacements[k] + (0..nt).map(|l| p[(k, l)] * tau[l]).sum::<f64>()).max(0.0))
+        .collect();
+    (tau, theta)
+}
+
+/// The shooting residual of one TDCR as a [`NonlinearSystem`].
+struct TdcrSystem<'a> {
+    model: &'a LegModel,
+    leg: &'a mut LegScratch,
+    sens: &'a mut LegSensitivities,
+    control: &'a TendonControl,
+    wrench: &'a TipWrench,
+    end: LegEnd,
+}
+
+impl TdcrSystem<'_> {
+    fn n_gamma(&self) -> usize {
+        match self.control {
+            TendonControl::Tension(_) => 0,
+            TendonControl::Displacement(_) => self.model.n_tendons,
+        }
+    }
+
+    /// Leg start for unknowns x.
+    fn start(&self, x: &DVector<f64>) -> LegStart {
+        let ng = self.n_gamma();
+        let mut tensions = [0.0; MAX_TENDONS];
+        match self.control {
+            TendonControl::Tension(t) => tensions[..t.len()].copy_from_slice(t),
+            TendonControl::Displacement(_) => {
+                for k in 0..ng {
+                    tensions[k] = tension(x[k]);
+                }
+            }
+        }
+        LegStart {
+            base: Frame::identity(),
+            u0: Vector3::new(x[ng], x[ng + 1], x[ng + 2]),
+            v0: Vector3::new(x[ng + 3], x[ng + 4], x[ng + 5]),
+            tensions,
+        }
+    }
+
+    fn fill_residual(&self, x: &DVector<f64>, r: &mut DVector<f64>) {
+        let e = &self.end;
+        let f = e.n - self.wrench.force;
+        let m = e.m - self.wrench.moment;
+        for i in 0..3 {
+            r[i] = f[i];
+            r[3 + i] = m[i];
+        }
+        if let TendonControl::Displacement(d) = self.control {
+            for k in 0..self.model.n_tendons {
+                let g = x[k];
+                let end_k = self.model.tendon_ends[k];
+                r[6 + k] = e.lengths[k] + slack(g)
+                    - (1.0 + tension(g) / self.model.tendon_stiffness) * end_k
+                    - d[k];
+            }
+        }
+    }
+}
+
+impl NonlinearSystem for TdcrSystem<'_> {
+    fn dim(&self) -> usize {
+        6 + self.n_gamma()
+    }
+
+    fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+        let start = self.start(x);
+        integrate_leg(self.model, &start, self.leg, &mut self.end, None)?;
+        self.fill_residual(x, r);
+        Ok(())
+    }
+
+    fn residual_and_jacobian(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: &mut DMatrix<f64>,
+    ) -> Result<(), SolveError> {
+        let start = self.start(x);
+        integrate_leg_with_sensitivities(
+            self.model,
+            &start,
+            self.leg,
+            &mut self.end,
+            self.sens,
+            None,
+        )?;
+        self.fill_residual(x, r);
+        let ng = self.n_gamma();
+        let rows = 6 + ng;
+        // Column of one leg direction, scaled by `scale`.
+        let mut put = |col: usize, d: &LegEnd, scale: f64| {
+            for i in 0..3 {
+                jac[(i, col)] = d.n[i] * scale;
+                jac[(3 + i, col)] = d.m[i] * scale;
+            }
+            for k in 0..rows - 6 {
+                jac[(6 + k, col)] = d.lengths[k] * scale;
+            }
+        };
+        for j in 0..6 {
+            put(ng + j, &self.sens.d[j], 1.0);
+        }
+        for k in 0..ng {
+            put(k, &self.sens.d[6 + k], tension_derivative(x[k]));
+        }
+        for k in 0..ng {
+            let end_k = self.model.tendon_ends[k];
+            jac[(6 + k, k)] += slack_derivative(x[k])
+                - end_k / self.model.tendon_stiffness * tension_derivative(x[k]);
+        }
+        Ok(())
+    }
+
+    fn row_weights(&self, w: &mut DVector<f64>) {
+        let len = self.model.length;
+        let ei = self.model.bending_stiffness();
+        let force = len * len / ei;
+        let moment = len / ei;
+        let offset = self.model.max_offset();
+        let length = 1.0 / if offset > 0.0 { offset } else { len };
+        for i in 0..3 {
+            w[i] = force;
+            w[3 + i] = moment;
+        }
+        for i in 6..w.len() {
+            w[i] = length;
+        }
+    }
+}
+
+/// Rotation matrix as nested rows (for JSON).
+pub fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+    [
+        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+        [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+    ]
+}
