@@ -180,7 +180,7 @@ impl Stage {
             let mut block = mat.fixed_view_mut::<3, 3>(0, 3);
             block -= a_rh;
             let mut block = mat.fixed_view_mut::<3, 3>(3, 0);
-            block += a_rh.transpose();
+            block -= a_rh.transpose(); // r̂ A = −(A r̂)ᵀ
             let mut block = mat.fixed_view_mut::<3, 3>(3, 3);
             block -= rh * a_rh;
             let z = u.cross(&w);
