@@ -18,7 +18,7 @@ use crate::error::{DesignError, Violations};
 pub const MAX_TENDONS: usize = 12;
 
 /// Default number of fixed integration steps over the whole leg length.
-pub const DEFAULT_INTEGRATION_STEPS: usize = 48;
+pub const DEFAULT_INTEGRATION_STEPS: usize = 26;
 
 /// One tendon, routed straight (parallel to the backbone) at a fixed offset.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -231,7 +231,7 @@ impl Leg {
             check_finite(v, &tf("angle"), t.angle);
             if !(t.offset.is_finite() && t.offset > 0.0) {
                 v.push(tf("offset"), t.offset, "> 0 m");
-            } else if self.disks.radius.is_finite() && t.offset > self.disks.radius {
+            } else if self.disks.radius > 0.0 && t.offset > self.disks.radius {
                 v.push(
                     tf("offset"),
                     t.offset,

@@ -53,6 +53,12 @@ struct TdcrArgs {
     /// Tip moment MX,MY,MZ [N·m], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_moment: Option<Vector3<f64>>,
+    /// Newton tolerance on the Euclidean norm of the SI residual.
+    #[arg(long, default_value_t = 1e-10)]
+    tolerance: f64,
+    /// Most Newton iterations.
+    #[arg(long, default_value_t = 60)]
+    max_iterations: usize,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -120,6 +126,13 @@ fn run_tdcr(args: &TdcrArgs) -> Result<(), Error> {
         moment: args.tip_moment.unwrap_or_default(),
     };
     let mut solver = TdcrSolver::new(&robot);
+    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
+        let mut v = tdpcr::error::Violations::default();
+        v.push("--tolerance", args.tolerance, "> 0");
+        return Err(Error::Input(v));
+    }
+    solver.settings.tolerance = args.tolerance;
+    solver.settings.max_iterations = args.max_iterations;
     let sol = solver.solve(&control, &wrench, None)?;
     let out = TdcrOutput {
         tip_position: sol.tip.position.into(),

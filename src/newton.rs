@@ -134,6 +134,15 @@ impl NewtonScratch {
     }
 }
 
+/// ‖D x‖₂ without a temporary.
+fn scaled_norm(x: &DVector<f64>, d: &DVector<f64>) -> f64 {
+    x.iter()
+        .zip(d.iter())
+        .map(|(a, b)| (a * b) * (a * b))
+        .sum::<f64>()
+        .sqrt()
+}
+
 fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
     r.iter().zip(w.iter()).map(|(a, b)| (a * b) * (a * b)).sum()
 }
@@ -202,7 +211,7 @@ pub fn solve<S: NonlinearSystem>(
             };
         }
         if iterations == 0 {
-            let dx = x.component_mul(&sc.diag).norm();
+            let dx = scaled_norm(x, &sc.diag);
             radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
         }
         sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
@@ -213,7 +222,7 @@ pub fn solve<S: NonlinearSystem>(
             sc.newton_step.iter().all(|v| v.is_finite())
         };
         let newton_len = if newton_ok {
-            sc.newton_step.component_mul(&sc.diag).norm()
+            scaled_norm(&sc.newton_step, &sc.diag)
         } else {
             f64::INFINITY
         };
@@ -270,7 +279,7 @@ pub fn solve<S: NonlinearSystem>(
                     sc.step[j] = sc.work[j] + beta * (sc.newton_step[j] - sc.work[j]);
                 }
             }
-            let step_len = sc.step.component_mul(&sc.diag).norm();
+            let step_len = scaled_norm(&sc.step, &sc.diag);
             // Predicted reduction of the weighted merit from the linear model.
             let mut predicted_sq = 0.0;
             for i in 0..n {
@@ -309,7 +318,7 @@ pub fn solve<S: NonlinearSystem>(
                 x.copy_from(&sc.x_trial);
                 break;
             }
-            if radius <= 1e-14 * x.component_mul(&sc.diag).norm().max(1e-300) {
+            if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
                 return Err(not_converged(
                     iterations,
                     norm,

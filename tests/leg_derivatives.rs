@@ -1,3 +1,4 @@
+#![allow(clippy::needless_range_loop)]
 //! Exact sensitivities against central finite differences (MODEL.md §5).
 //!
 //! Error measure, stated once: the Jacobian is split into output blocks (tip position, tip

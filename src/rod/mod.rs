@@ -1,6 +1,7 @@
 //! One leg: the tendon-driven Cosserat rod (MODEL.md §2) and its exact sensitivities (§5).
 
 pub mod integrate;
+pub mod ldlt6;
 pub mod model;
 pub mod rhs;
 pub mod tendon;

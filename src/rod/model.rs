@@ -53,6 +53,10 @@ pub struct LegModel {
     pub n_tendons: usize,
     /// Tendon offsets r_k in the body frame [m] (z = 0); entries beyond n_t are zero.
     pub tendon_offsets: [Vector3<f64>; MAX_TENDONS],
+    /// r̂_k, the skew matrices of the offsets.
+    pub tendon_hats: [Matrix3<f64>; MAX_TENDONS],
+    /// r̂_k r̂_kᵀ = |r_k|² I − r_k r_kᵀ.
+    pub tendon_hat_squares: [Matrix3<f64>; MAX_TENDONS],
     /// Arc length where each tendon ends [m].
     pub tendon_ends: [f64; MAX_TENDONS],
     /// Tendon axial stiffness (EA)_t [N].
@@ -82,6 +86,8 @@ impl LegModel {
                 Vector3::new(t.offset * t.angle.cos(), t.offset * t.angle.sin(), 0.0);
             tendon_ends[k] = t.end;
         }
+        let tendon_hats = tendon_offsets.map(|r| crate::rod::rhs::hat(&r));
+        let tendon_hat_squares = tendon_hats.map(|h| h * h.transpose());
         let total_mass = leg.backbone_mass + leg.disks.count as f64 * leg.disks.mass;
         Self {
             length: leg.length,
@@ -89,6 +95,8 @@ impl LegModel {
             k_bt: Vector3::new(e * inertia, e * inertia, g_mod * 2.0 * inertia),
             n_tendons: leg.tendons.len(),
             tendon_offsets,
+            tendon_hats,
+            tendon_hat_squares,
             tendon_ends,
             tendon_stiffness: leg.tendon_stiffness,
             weight_per_length: gravity * (total_mass / leg.length),

@@ -14,10 +14,11 @@
 //! tangent is dx = −M⁻¹ ∂g/∂state · dstate, where every tendon enters through
 //! F_k = A_k y_k, y_k = v' + u' × r_k + u × w_k.
 
-use nalgebra::{Cholesky, Matrix3, Matrix6, U6, Vector3, Vector6};
+use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
+use crate::rod::ldlt6::Ldlt6;
 use crate::rod::model::LegModel;
 
 /// The rod state (or its derivative, or a tangent): position p [m], rotation R, strains
@@ -79,6 +80,17 @@ pub fn hat(x: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -x.z, x.y, x.z, 0.0, -x.x, -x.y, x.x, 0.0)
 }
 
+/// M x̂ for any 3×3 M, by columns: (M x̂) e_j = M (x × e_j).
+#[inline]
+pub fn times_hat(m: &Matrix3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
+    let (c0, c1, c2) = (m.column(0), m.column(1), m.column(2));
+    Matrix3::from_columns(&[
+        c1 * x.z - c2 * x.y,
+        c2 * x.x - c0 * x.z,
+        c0 * x.y - c1 * x.x,
+    ])
+}
+
 /// Per-tendon quantities of one evaluation, kept for the tangent.
 #[derive(Debug, Clone, Copy)]
 struct TendonPoint {
@@ -106,7 +118,7 @@ pub struct Stage {
     n_body: Vector3<f64>,
     /// K_bt u: body-frame internal moment [N·m].
     m_body: Vector3<f64>,
-    chol: Cholesky<f64, U6>,
+    factor: Ldlt6,
     tendons: [TendonPoint; MAX_TENDONS],
     active: u32,
 }
@@ -129,7 +141,7 @@ impl Stage {
             u: Vector3::zeros(),
             n_body: Vector3::zeros(),
             m_body: Vector3::zeros(),
-            chol: Cholesky::new_unchecked(Matrix6::identity()),
+            factor: Ldlt6::identity(),
             tendons: [tp; MAX_TENDONS],
             active: 0,
         }
@@ -152,14 +164,12 @@ impl Stage {
         let (v, u) = (y.v, y.u);
         let n_body = model.k_se.component_mul(&(v - Vector3::z()));
         let m_body = model.k_bt.component_mul(&u);
-        let mut mat = Matrix6::from_diagonal(&Vector6::new(
-            model.k_se.x,
-            model.k_se.y,
-            model.k_se.z,
-            model.k_bt.x,
-            model.k_bt.y,
-            model.k_bt.z,
-        ));
+        // Lower triangle of M = K + Σ_k P_kᵀ A_k P_k (blocks A, r̂A, r̂ A r̂ᵀ).
+        let mut mat = [[0.0; 6]; 6];
+        for i in 0..3 {
+            mat[i][i] = model.k_se[i];
+            mat[3 + i][3 + i] = model.k_bt[i];
+        }
         let mut rhs_v = -u.cross(&n_body) - y.r.tr_mul(&model.weight_per_length);
         let mut rhs_u = -u.cross(&m_body) - v.cross(&n_body);
         for k in 0..model.n_tendons {
@@ -171,18 +181,20 @@ impl Stage {
             let len = w.norm();
             let t = w / len;
             let c = tau[k] / len;
-            // A = c (I − t tᵀ); blocks of Pᵀ A P with P = [I, −r̂].
-            let a = (Matrix3::identity() - t * t.transpose()) * c;
-            let rh = hat(r_k);
-            let a_rh = a * rh;
-            let mut block = mat.fixed_view_mut::<3, 3>(0, 0);
-            block += a;
-            let mut block = mat.fixed_view_mut::<3, 3>(0, 3);
-            block -= a_rh;
-            let mut block = mat.fixed_view_mut::<3, 3>(3, 0);
-            block -= a_rh.transpose(); // r̂ A = −(A r̂)ᵀ
-            let mut block = mat.fixed_view_mut::<3, 3>(3, 3);
-            block -= rh * a_rh;
+            // A = c (I − t tᵀ); r̂A = c (r̂ − s tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − s sᵀ), s = r × t.
+            let sv = r_k.cross(&t);
+            let rh = &model.tendon_hats[k];
+            let rr = &model.tendon_hat_squares[k];
+            for i in 0..3 {
+                for j in 0..=i {
+                    let delta = if i == j { 1.0 } else { 0.0 };
+                    mat[i][j] += c * (delta - t[i] * t[j]);
+                    mat[3 + i][3 + j] += c * (rr[(i, j)] - sv[i] * sv[j]);
+                }
+                for j in 0..3 {
+                    mat[3 + i][j] += c * (rh[(i, j)] - sv[i] * t[j]);
+                }
+            }
             let z = u.cross(&w);
             let a_z = (z - t * t.dot(&z)) * c;
             rhs_v -= a_z;
@@ -198,11 +210,10 @@ impl Stage {
                 q: Vector3::zeros(),
             };
         }
-        let chol = Cholesky::new(mat).ok_or(SolveError::NonFinite {
+        let factor = Ldlt6::factor(&mat).ok_or(SolveError::NonFinite {
             stage: "rod strain system (eq. 5)",
         })?;
-        let mut x = Vector6::new(rhs_v.x, rhs_v.y, rhs_v.z, rhs_u.x, rhs_u.y, rhs_u.z);
-        chol.solve_mut(&mut x);
+        let x = factor.solve([rhs_v.x, rhs_v.y, rhs_v.z, rhs_u.x, rhs_u.y, rhs_u.z]);
         let dv = Vector3::new(x[0], x[1], x[2]);
         let du = Vector3::new(x[3], x[4], x[5]);
         if !(dv.iter().chain(du.iter()).all(|e| e.is_finite())) {
@@ -210,9 +221,9 @@ impl Stage {
                 stage: "rod strain derivatives (eq. 5)",
             });
         }
-        out.s = [0.0; MAX_TENDONS];
         for k in 0..model.n_tendons {
             if active & (1 << k) == 0 {
+                out.s[k] = 0.0;
                 continue;
             }
             let tp = &mut self.tendons[k];
@@ -222,7 +233,7 @@ impl Stage {
             out.s[k] = tp.len;
         }
         out.p = y.r * v;
-        out.r = y.r * hat(&u);
+        out.r = times_hat(&y.r, &u);
         out.v = dv;
         out.u = du;
         self.r = y.r;
@@ -230,7 +241,7 @@ impl Stage {
         self.u = u;
         self.n_body = n_body;
         self.m_body = m_body;
-        self.chol = chol;
+        self.factor = factor;
         self.active = active;
         Ok(())
     }
@@ -252,9 +263,9 @@ impl Stage {
             dy.r.tr_mul(&model.weight_per_length) + du.cross(&self.n_body) + u.cross(&k_se_dv);
         let mut g_u =
             du.cross(&self.m_body) + u.cross(&k_bt_du) + dv.cross(&self.n_body) + v.cross(&k_se_dv);
-        out.s = [0.0; MAX_TENDONS];
         for k in 0..model.n_tendons {
             if self.active & (1 << k) == 0 {
+                out.s[k] = 0.0;
                 continue;
             }
             let tp = &self.tendons[k];
@@ -262,19 +273,24 @@ impl Stage {
             let dw = dv + du.cross(r_k);
             let dlen = tp.t.dot(&dw);
             let dt = (dw - tp.t * dlen) / tp.len;
-            let dyk = du.cross(&tp.w) + u.cross(&dw);
+            out.s[k] = dlen;
             let dtau_k = if dtau == Some(k) { 1.0 } else { 0.0 };
+            if tp.c == 0.0 && dtau_k == 0.0 {
+                // A slack tendon loads the rod only through its own tension direction.
+                continue;
+            }
+            let dyk = du.cross(&tp.w) + u.cross(&dw);
             let dc = (dtau_k - tp.c * dlen) / tp.len;
             let df =
                 tp.q * dc + (dyk - dt * tp.ty - tp.t * (dt.dot(&tp.y) + tp.t.dot(&dyk))) * tp.c;
             g_v += df;
             g_u += r_k.cross(&df);
-            out.s[k] = dlen;
         }
-        let mut dx = Vector6::new(-g_v.x, -g_v.y, -g_v.z, -g_u.x, -g_u.y, -g_u.z);
-        self.chol.solve_mut(&mut dx);
+        let dx = self
+            .factor
+            .solve([-g_v.x, -g_v.y, -g_v.z, -g_u.x, -g_u.y, -g_u.z]);
         out.p = dy.r * v + self.r * dv;
-        out.r = dy.r * hat(u) + self.r * hat(du);
+        out.r = times_hat(&dy.r, u) + times_hat(&self.r, du);
         out.v = Vector3::new(dx[0], dx[1], dx[2]);
         out.u = Vector3::new(dx[3], dx[4], dx[5]);
     }
@@ -283,5 +299,17 @@ impl Stage {
 impl Default for Stage {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn times_hat_is_the_product_with_the_skew_matrix() {
+        let m = Matrix3::new(1.0, 2.0, -3.0, 0.5, -1.0, 4.0, 2.0, 0.0, 1.5);
+        let x = Vector3::new(0.3, -1.2, 2.0);
+        assert!((times_hat(&m, &x) - m * hat(&x)).norm() < 1e-14);
     }
 }

@@ -1,0 +1,171 @@
+//! The `tdpcr` binary end to end: outputs, exit codes and error messages.
+
+mod common;
+
+use std::process::{Command, Output};
+
+use common::design_path;
+
+fn tdpcr(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tdpcr"))
+        .args(args)
+        .output()
+        .expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn robot() -> String {
+    design_path("tdcr_one_segment.ron").display().to_string()
+}
+
+#[test]
+fn tdcr_json_has_the_documented_keys() {
+    let o = tdpcr(&[
+        "tdcr",
+        &robot(),
+        "--displacements",
+        "-0.005,0.005",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "tip_position",
+        "tip_rotation",
+        "tensions",
+        "iterations",
+        "residual_norm",
+        "shape",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["tip_position"].as_array().unwrap().len(), 3);
+    let rot = v["tip_rotation"].as_array().unwrap();
+    assert_eq!(rot.len(), 3);
+    assert_eq!(rot[0].as_array().unwrap().len(), 3);
+    assert_eq!(v["shape"].as_array().unwrap().len(), 13);
+    assert_eq!(v["tensions"][1].as_f64(), Some(0.0));
+    assert!(v["residual_norm"].as_f64().unwrap() <= 1e-10);
+    // The last disk is the tip.
+    assert_eq!(v["shape"][12], v["tip_position"]);
+}
+
+#[test]
+fn tension_mode_with_tip_load_runs_in_text_format() {
+    let o = tdpcr(&[
+        "tdcr",
+        &robot(),
+        "--tensions",
+        "2,0.5",
+        "--tip-force",
+        "0,0.1,-0.2",
+        "--tip-moment",
+        "0,0,0.001",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("tip position [m]"), "{out}");
+}
+
+#[test]
+fn bad_input_exits_2_naming_the_problem() {
+    let o = tdpcr(&["tdcr", &robot(), "--tensions", "1,2,3"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("tensions = 3 values: expected 2 values, one per tendon"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&["tdcr", &robot(), "--tensions", "1,-2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("tensions[1] = -2: expected >= 0 N"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&["tdcr", &robot(), "--tensions", "1,x"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("expected comma-separated numbers, got 'x'"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&["tdcr", &robot()]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn displacement_control_without_tendons_is_an_input_error() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bare.ron");
+    let text = std::fs::read_to_string(robot()).unwrap();
+    let start = text.find("tendons: [").unwrap();
+    let end = start + text[start..].find("],").unwrap() + 2;
+    std::fs::write(
+        &path,
+        format!("{}tendons: [],{}", &text[..start], &text[end..]),
+    )
+    .unwrap();
+    let o = tdpcr(&["tdcr", path.to_str().unwrap(), "--displacements", "0.0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("a robot with at least one tendon"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&[
+        "tdcr",
+        path.to_str().unwrap(),
+        "--tensions",
+        "",
+        "--tip-force",
+        "0.001,0,0",
+    ]);
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_failed_solve_exits_1_with_residual_and_iterations() {
+    let o = tdpcr(&[
+        "tdcr",
+        &robot(),
+        "--displacements",
+        "-0.005,0.005",
+        "--max-iterations",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("did not converge: residual norm") && e.contains("after 1 iterations"),
+        "{e}"
+    );
+}
+
+#[test]
+fn malformed_and_invalid_files_exit_2_with_location() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("broken.ron");
+    std::fs::write(
+        &path,
+        "Tdcr(\n  gravity: (0.0, 0.0, -9.81),\n  leg: Leg(length: ,\n",
+    )
+    .unwrap();
+    let o = tdpcr(&["tdcr", path.to_str().unwrap(), "--tensions", "1,1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("broken.ron:3:"), "{}", stderr(&o));
+    let o = tdpcr(&[
+        "validate",
+        &design_path("lilge2022.ron").display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("6-DoF"));
+    std::fs::remove_dir_all(&dir).ok();
+}
