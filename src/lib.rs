@@ -24,9 +24,11 @@
 // Tendon quantities live in parallel arrays indexed by k, as in the equations.
 #![allow(clippy::needless_range_loop)]
 
+pub mod boundary;
 pub mod design;
 pub mod error;
 pub mod linalg;
+pub mod model;
 pub mod newton;
 pub mod rod;
 pub mod tdcr;

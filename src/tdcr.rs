@@ -28,13 +28,7 @@ pub enum TendonControl {
 }
 
 /// External wrench at the tip, world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct TipWrench {
-    /// Force F [N].
-    pub force: Vector3<f64>,
-    /// Moment M [N·m].
-    pub moment: Vector3<f64>,
-}
+pub type TipWrench = crate::rod::Wrench;
 
 /// The unknowns of a solved robot; pass back as a warm start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -10,4 +10,4 @@ pub use integrate::{
     LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, MAX_DIRECTIONS, integrate_leg,
     integrate_leg_with_sensitivities,
 };
-pub use model::{Frame, LegModel};
+pub use model::{Frame, LegModel, Wrench};

@@ -23,6 +23,15 @@ impl Frame {
     }
 }
 
+/// A wrench (force [N], moment [N·m]), world frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Wrench {
+    /// Force [N].
+    pub force: Vector3<f64>,
+    /// Moment [N·m].
+    pub moment: Vector3<f64>,
+}
+
 /// A piece of the leg between two consecutive breakpoints (disks or tendon ends).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interval {

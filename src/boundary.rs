@@ -1,0 +1,492 @@
+//! The boundary residual b of the parallel robot (MODEL.md §3, eq. 16) and its Jacobian
+//! blocks B_x, B_q, B_w, B_u (§4): exact from the legs' forward sensitivities (§5), or by
+//! the paper's finite-difference baseline (perturb one unknown, re-integrate only the leg
+//! it affects).
+//!
+//! Row order (30 rows for the 6-DoF design, 36 for the 9-DoF design):
+//! 0..3 platform force balance Σ F_i − f_ext [N]; 3..6 platform moment balance
+//! Σ (R_ee ᵇp_ci) × F_i − l_ext [N·m]; then per leg i, at 6 + i (6 + n_t):
+//! coupling position p_ee + R_ee ᵇp_ci − p_i(L) − R_i(L) L_c e_z (3, m), zero joint moment
+//! m_i⁺(L) + c_i × F_i (3, N·m), tendon lengths (n_t, m). F_i = n_i⁺(L) is the force the
+//! leg transmits beyond its tip.
+//!
+//! Column order: x_ee = (δp, δθ) with R_ee ← exp(δθ^) R_ee; q per leg [q_b per pair, q_t];
+//! w = (f_ext, l_ext); y_u per leg [γ (n_t), u(0) (3), v(0) (3)].
+
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use crate::design::MAX_TENDONS;
+use crate::error::SolveError;
+use crate::model::{Model, Pose};
+use crate::rod::rhs::hat;
+use crate::rod::tendon::{slack, slack_derivative, tension, tension_derivative};
+use crate::rod::{
+    LegEnd, LegScratch, LegSensitivities, LegStart, Wrench, integrate_leg,
+    integrate_leg_with_sensitivities,
+};
+
+/// Where the residual is evaluated: platform pose, actuation, external wrench (world
+/// frame, at the platform centre, including the platform weight) and leg unknowns.
+#[derive(Debug, Clone, Copy)]
+pub struct BoundaryPoint<'a> {
+    /// Platform pose x_ee.
+    pub pose: &'a Pose,
+    /// Actuation q (6 or 9 values) [m].
+    pub q: &'a [f64],
+    /// Total external wrench w on the platform.
+    pub wrench: &'a Wrench,
+    /// Leg unknowns y_u (3 (6 + n_t) values).
+    pub y_u: &'a [f64],
+}
+
+/// The Jacobian blocks of b (MODEL.md eq. 17).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundaryJacobians {
+    /// ∂b/∂x_ee (rows × 6).
+    pub b_x: DMatrix<f64>,
+    /// ∂b/∂q (rows × 6 or 9).
+    pub b_q: DMatrix<f64>,
+    /// ∂b/∂w (rows × 6), constant.
+    pub b_w: DMatrix<f64>,
+    /// ∂b/∂y_u (rows × 3 (6 + n_t)).
+    pub b_u: DMatrix<f64>,
+}
+
+impl BoundaryJacobians {
+    /// Zero blocks sized for `model`.
+    pub fn new(model: &Model) -> Self {
+        let m = model.n_residuals();
+        Self {
+            b_x: DMatrix::zeros(m, 6),
+            b_q: DMatrix::zeros(m, model.n_actuators()),
+            b_w: DMatrix::zeros(m, 6),
+            b_u: DMatrix::zeros(m, 3 * model.n_leg_unknowns()),
+        }
+    }
+}
+
+/// How the finite-difference baseline differentiates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FiniteDifference {
+    /// (b(x + h) − b(x)) / h: one re-integration per leg unknown.
+    Forward,
+    /// (b(x + h) − b(x − h)) / 2h: two re-integrations per leg unknown.
+    Central,
+}
+
+/// Buffers for residual and Jacobian evaluations of one model.
+#[derive(Debug, Clone)]
+pub struct BoundaryScratch {
+    legs: Box<[LegScratch; 3]>,
+    sens: Box<[LegSensitivities; 3]>,
+    ends: [LegEnd; 3],
+    starts: [LegStart; 3],
+    trial: DVector<f64>,
+    base: DVector<f64>,
+}
+
+impl BoundaryScratch {
+    /// Buffers for `model`.
+    pub fn new(model: &Model) -> Self {
+        let nd = 6 + model.n_tendons();
+        Self {
+            legs: Box::new([LegScratch::new(), LegScratch::new(), LegScratch::new()]),
+            sens: Box::new([
+                LegSensitivities::new(nd),
+                LegSensitivities::new(nd),
+                LegSensitivities::new(nd),
+            ]),
+            ends: [LegEnd::zeros(); 3],
+            starts: [leg_start(
+                model,
+                0,
+                &vec![0.0; model.n_actuators()],
+                &vec![0.0; 3 * model.n_leg_unknowns()],
+            ); 3],
+            trial: DVector::zeros(model.n_residuals()),
+            base: DVector::zeros(model.n_residuals()),
+        }
+    }
+
+    /// The leg tips of the last evaluation.
+    pub fn leg_ends(&self) -> &[LegEnd; 3] {
+        &self.ends
+    }
+}
+
+/// First row of leg i's block.
+fn leg_row(model: &Model, leg: usize) -> usize {
+    6 + leg * model.n_leg_unknowns()
+}
+
+/// Integration start of leg i at q and its unknowns.
+pub fn leg_start(model: &Model, leg: usize, q: &[f64], y_u: &[f64]) -> LegStart {
+    let nt = model.n_tendons();
+    let y = &y_u[leg * model.n_leg_unknowns()..];
+    let mut tensions = [0.0; MAX_TENDONS];
+    for k in 0..nt {
+        tensions[k] = tension(y[k]);
+    }
+    LegStart {
+        base: model.base_frame(leg, model.translation(leg, q)),
+        u0: Vector3::new(y[nt], y[nt + 1], y[nt + 2]),
+        v0: Vector3::new(y[nt + 3], y[nt + 4], y[nt + 5]),
+        tensions,
+    }
+}
+
+/// b from the three leg tips.
+fn assemble_residual(model: &Model, p: &BoundaryPoint, ends: &[LegEnd; 3], r: &mut DVector<f64>) {
+    let nt = model.n_tendons();
+    let lc = model.coupling_offset;
+    let mut force = -p.wrench.force;
+    let mut moment = -p.wrench.moment;
+    for (i, end) in ends.iter().enumerate() {
+        let a = p.pose.rotation * model.coupling_points[i];
+        force += end.n;
+        moment += a.cross(&end.n);
+        let tip_axis = end.r.column(2).into_owned();
+        let coupling = p.pose.position + a - end.p - tip_axis * lc;
+        let joint_moment = end.m - (tip_axis * lc).cross(&end.n);
+        let row = leg_row(model, i);
+        for c in 0..3 {
+            r[row + c] = coupling[c];
+            r[row + 3 + c] = joint_moment[c];
+        }
+        let y = &p.y_u[i * model.n_leg_unknowns()..];
+        let displacement = model.tendon_displacements(i, p.q);
+        for k in 0..nt {
+            let g = y[k];
+            r[row + 6 + k] = end.lengths[k] + slack(g)
+                - (1.0 + tension(g) / model.leg.tendon_stiffness) * model.leg.tendon_ends[k]
+                - displacement[k];
+        }
+    }
+    for c in 0..3 {
+        r[c] = force[c];
+        r[3 + c] = moment[c];
+    }
+}
+
+/// Evaluates b at `p` (three primal leg integrations).
+///
+/// # Errors
+/// [`SolveError::NonFinite`] if a leg integration blows up.
+pub fn boundary_residual(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    p: &BoundaryPoint,
+    r: &mut DVector<f64>,
+) -> Result<(), SolveError> {
+    for i in 0..3 {
+        sc.starts[i] = leg_start(model, i, p.q, p.y_u);
+        integrate_leg(
+            &model.leg,
+            &sc.starts[i],
+            &mut sc.legs[i],
+            &mut sc.ends[i],
+            None,
+        )?;
+    }
+    assemble_residual(model, p, &sc.ends, r);
+    Ok(())
+}
+
+/// Evaluates b and its exact Jacobian blocks at `p` (three leg integrations with
+/// 6 + n_t sensitivity directions each).
+///
+/// # Errors
+/// As [`boundary_residual`].
+pub fn boundary_derivatives(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    p: &BoundaryPoint,
+    r: &mut DVector<f64>,
+    jac: &mut BoundaryJacobians,
+) -> Result<(), SolveError> {
+    let nt = model.n_tendons();
+    let nu = model.n_leg_unknowns();
+    let lc = model.coupling_offset;
+    for i in 0..3 {
+        sc.starts[i] = leg_start(model, i, p.q, p.y_u);
+        integrate_leg_with_sensitivities(
+            &model.leg,
+            &sc.starts[i],
+            &mut sc.legs[i],
+            &mut sc.ends[i],
+            &mut sc.sens[i],
+            None,
+        )?;
+    }
+    assemble_residual(model, p, &sc.ends, r);
+    jac.b_x.fill(0.0);
+    jac.b_q.fill(0.0);
+    jac.b_u.fill(0.0);
+    fill_b_w(&mut jac.b_w);
+    for i in 0..3 {
+        let end = &sc.ends[i];
+        let row = leg_row(model, i);
+        let a = p.pose.rotation * model.coupling_points[i];
+        // B_x: δp moves every coupling point; δθ rotates a = R_ee ᵇp_c (δa = δθ × a).
+        for c in 0..3 {
+            jac.b_x[(row + c, c)] = 1.0;
+        }
+        let moment_block = hat(&end.n) * hat(&a);
+        let coupling_block = -hat(&a);
+        for (rr, cc) in (0..3).flat_map(|rr| (0..3).map(move |cc| (rr, cc))) {
+            jac.b_x[(3 + rr, 3 + cc)] += moment_block[(rr, cc)];
+            jac.b_x[(row + rr, 3 + cc)] = coupling_block[(rr, cc)];
+        }
+        // B_q: bending pairs shift the tendon length rows; translation moves the leg rigidly.
+        let qa = i * (model.pairs + 1);
+        for j in 0..model.pairs {
+            jac.b_q[(row + 6 + 2 * j, qa + j)] = 1.0;
+            jac.b_q[(row + 6 + 2 * j + 1, qa + j)] = -1.0;
+        }
+        for c in 0..3 {
+            jac.b_q[(row + c, qa + model.pairs)] = -model.tangents[i][c];
+        }
+        // B_u: leg i's unknowns, from its sensitivities.
+        let y = &p.y_u[i * nu..];
+        let tip_axis = end.r.column(2).into_owned();
+        for j in 0..nu {
+            // (sensitivity direction, scale): γ_k → τ_k direction · dτ/dγ.
+            let (dir, scale) = if j < nt {
+                (6 + j, tension_derivative(y[j]))
+            } else {
+                (j - nt, 1.0)
+            };
+            let d = &sc.sens[i].d[dir];
+            let col = i * nu + j;
+            let dn = d.n * scale;
+            let daxis = d.r.column(2) * scale;
+            let d_joint = d.m * scale - (daxis * lc).cross(&end.n) - (tip_axis * lc).cross(&dn);
+            let d_coupling = -(d.p * scale) - daxis * lc;
+            let d_moment = a.cross(&dn);
+            for c in 0..3 {
+                jac.b_u[(c, col)] = dn[c];
+                jac.b_u[(3 + c, col)] = d_moment[c];
+                jac.b_u[(row + c, col)] = d_coupling[c];
+                jac.b_u[(row + 3 + c, col)] = d_joint[c];
+            }
+            for k in 0..nt {
+                jac.b_u[(row + 6 + k, col)] = d.lengths[k] * scale;
+            }
+            if j < nt {
+                jac.b_u[(row + 6 + j, col)] += slack_derivative(y[j])
+                    - model.leg.tendon_ends[j] / model.leg.tendon_stiffness
+                        * tension_derivative(y[j]);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// B_w: the force rows see −f_ext, the moment rows −l_ext.
+fn fill_b_w(b_w: &mut DMatrix<f64>) {
+    b_w.fill(0.0);
+    for c in 0..6 {
+        b_w[(c, c)] = -1.0;
+    }
+}
+
+/// Finite-difference steps of the baseline, per kind of unknown: (forward, central).
+/// Chosen for the reference design's scales: strains v are ~1e4 times stiffer than u.
+pub mod fd_steps {
+    /// Platform position [m].
+    pub const POSITION: (f64, f64) = (1e-8, 1e-6);
+    /// Platform rotation [rad].
+    pub const ROTATION: (f64, f64) = (1e-8, 1e-6);
+    /// Actuation [m].
+    pub const ACTUATION: (f64, f64) = (1e-8, 1e-6);
+    /// Wrench [N, N·m].
+    pub const WRENCH: (f64, f64) = (1e-6, 1e-4);
+    /// γ [√N], relative to max(1, |γ|).
+    pub const GAMMA: (f64, f64) = (1e-7, 1e-5);
+    /// u(0) [1/m], relative to max(1, |u|).
+    pub const BENDING_STRAIN: (f64, f64) = (1e-7, 1e-4);
+    /// v(0) [–].
+    pub const SHEAR_STRAIN: (f64, f64) = (1e-10, 1e-8);
+}
+
+/// A copy of a [`BoundaryPoint`]'s inputs that the baseline perturbs.
+#[derive(Clone, Copy)]
+struct Perturbed {
+    pose: Pose,
+    q: [f64; 9],
+    wrench: Wrench,
+    y_u: [f64; 3 * (6 + MAX_TENDONS)],
+    nq: usize,
+    ny: usize,
+}
+
+impl Perturbed {
+    fn new(p: &BoundaryPoint) -> Self {
+        let mut q = [0.0; 9];
+        q[..p.q.len()].copy_from_slice(p.q);
+        let mut y_u = [0.0; 3 * (6 + MAX_TENDONS)];
+        y_u[..p.y_u.len()].copy_from_slice(p.y_u);
+        Self {
+            pose: *p.pose,
+            q,
+            wrench: *p.wrench,
+            y_u,
+            nq: p.q.len(),
+            ny: p.y_u.len(),
+        }
+    }
+
+    fn point(&self) -> BoundaryPoint<'_> {
+        BoundaryPoint {
+            pose: &self.pose,
+            q: &self.q[..self.nq],
+            wrench: &self.wrench,
+            y_u: &self.y_u[..self.ny],
+        }
+    }
+}
+
+/// b at a perturbed point into `sc.trial`, re-integrating only the legs whose start
+/// differs from the baseline's.
+fn perturbed_residual(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    pert: &Perturbed,
+) -> Result<(), SolveError> {
+    let point = pert.point();
+    let mut ends = sc.ends;
+    for i in 0..3 {
+        let start = leg_start(model, i, point.q, point.y_u);
+        if start != sc.starts[i] {
+            integrate_leg(&model.leg, &start, &mut sc.legs[i], &mut ends[i], None)?;
+        }
+    }
+    assemble_residual(model, &point, &ends, &mut sc.trial);
+    Ok(())
+}
+
+/// One finite-difference column: `perturb(copy, h)` shifts one input by h.
+fn fd_column(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    base: &Perturbed,
+    method: FiniteDifference,
+    h: f64,
+    (block, col): (&mut DMatrix<f64>, usize),
+    perturb: impl Fn(&mut Perturbed, f64),
+) -> Result<(), SolveError> {
+    let mut pert = *base;
+    perturb(&mut pert, h);
+    perturbed_residual(model, sc, &pert)?;
+    match method {
+        FiniteDifference::Forward => {
+            for i in 0..sc.trial.len() {
+                block[(i, col)] = (sc.trial[i] - sc.base[i]) / h;
+            }
+        }
+        FiniteDifference::Central => {
+            for i in 0..sc.trial.len() {
+                block[(i, col)] = sc.trial[i];
+            }
+            let mut pert = *base;
+            perturb(&mut pert, -h);
+            perturbed_residual(model, sc, &pert)?;
+            for i in 0..sc.trial.len() {
+                block[(i, col)] = (block[(i, col)] - sc.trial[i]) / (2.0 * h);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The paper's finite-difference Jacobian: one column at a time, re-integrating only the
+/// leg the unknown belongs to (pose, bending and wrench columns need no integration).
+/// Steps: [`fd_steps`].
+///
+/// # Errors
+/// As [`boundary_residual`].
+pub fn boundary_derivatives_fd(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    p: &BoundaryPoint,
+    method: FiniteDifference,
+    r: &mut DVector<f64>,
+    jac: &mut BoundaryJacobians,
+) -> Result<(), SolveError> {
+    boundary_residual(model, sc, p, r)?;
+    sc.base.copy_from(r);
+    let pick = |s: (f64, f64)| match method {
+        FiniteDifference::Forward => s.0,
+        FiniteDifference::Central => s.1,
+    };
+    let base = Perturbed::new(p);
+    for c in 0..3 {
+        fd_column(
+            model,
+            sc,
+            &base,
+            method,
+            pick(fd_steps::POSITION),
+            (&mut jac.b_x, c),
+            |x, d| x.pose.position[c] += d,
+        )?;
+        fd_column(
+            model,
+            sc,
+            &base,
+            method,
+            pick(fd_steps::ROTATION),
+            (&mut jac.b_x, 3 + c),
+            |x, d| {
+                let mut axis = Vector3::zeros();
+                axis[c] = d;
+                x.pose.rotation = nalgebra::Rotation3::new(axis).matrix() * x.pose.rotation;
+            },
+        )?;
+    }
+    for c in 0..p.q.len() {
+        fd_column(
+            model,
+            sc,
+            &base,
+            method,
+            pick(fd_steps::ACTUATION),
+            (&mut jac.b_q, c),
+            |x, d| x.q[c] += d,
+        )?;
+    }
+    for c in 0..6 {
+        fd_column(
+            model,
+            sc,
+            &base,
+            method,
+            pick(fd_steps::WRENCH),
+            (&mut jac.b_w, c),
+            |x, d| {
+                if c < 3 {
+                    x.wrench.force[c] += d;
+                } else {
+                    x.wrench.moment[c - 3] += d;
+                }
+            },
+        )?;
+    }
+    let nt = model.n_tendons();
+    let nu = model.n_leg_unknowns();
+    for c in 0..p.y_u.len() {
+        let j = c % nu;
+        let scale = p.y_u[c].abs().max(1.0);
+        let h = if j < nt {
+            pick(fd_steps::GAMMA) * scale
+        } else if j < nt + 3 {
+            pick(fd_steps::BENDING_STRAIN) * scale
+        } else {
+            pick(fd_steps::SHEAR_STRAIN)
+        };
+        fd_column(model, sc, &base, method, h, (&mut jac.b_u, c), |x, d| {
+            x.y_u[c] += d
+        })?;
+    }
+    Ok(())
+}
