@@ -13,9 +13,8 @@ use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::rod::model::{Frame, LegModel};
 use crate::rod::rhs::{RodState, Stage};
-
-/// Most sensitivity directions: u(0), v(0) and one tension per tendon.
-pub const MAX_DIRECTIONS: usize = 6 + MAX_TENDONS;
+pub use crate::rod::tangents::MAX_DIRECTIONS;
+use crate::rod::tangents::Tangents;
 
 /// The state at the tip of a leg (world frame, SI).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,10 +117,10 @@ pub struct LegScratch {
     y_stage: RodState,
     acc: RodState,
     k: RodState,
-    dk: RodState,
-    dy: Box<[RodState; MAX_DIRECTIONS]>,
-    dy_stage: Box<[RodState; MAX_DIRECTIONS]>,
-    dacc: Box<[RodState; MAX_DIRECTIONS]>,
+    dk: Box<Tangents>,
+    dy: Box<Tangents>,
+    dy_stage: Box<Tangents>,
+    dacc: Box<Tangents>,
 }
 
 impl LegScratch {
@@ -134,10 +133,10 @@ impl LegScratch {
             y_stage: z,
             acc: z,
             k: z,
-            dk: z,
-            dy: Box::new([z; MAX_DIRECTIONS]),
-            dy_stage: Box::new([z; MAX_DIRECTIONS]),
-            dacc: Box::new([z; MAX_DIRECTIONS]),
+            dk: Box::new(Tangents::zeros(0)),
+            dy: Box::new(Tangents::zeros(0)),
+            dy_stage: Box::new(Tangents::zeros(0)),
+            dacc: Box::new(Tangents::zeros(0)),
         }
     }
 }
@@ -216,14 +215,7 @@ fn integrate(
         u: start.u0,
         s: [0.0; MAX_TENDONS],
     };
-    for (j, dy) in sc.dy[..nd].iter_mut().enumerate() {
-        *dy = RodState::zeros();
-        match j {
-            0..3 => dy.u[j] = 1.0,
-            3..6 => dy.v[j - 3] = 1.0,
-            _ => {}
-        }
-    }
+    sc.dy.set_initial(nd);
     if let Some(shape) = shape.as_deref_mut() {
         shape.clear();
         shape.push(0.0, &sc.y);
@@ -262,13 +254,21 @@ fn integrate(
         });
     }
     if let Some(sens) = sens {
-        for (d, dy) in sens.d[..nd].iter_mut().zip(sc.dy.iter()) {
+        let dy = &sc.dy;
+        for (j, d) in sens.d[..nd].iter_mut().enumerate() {
+            let dr = Matrix3::from_fn(|row, col| dy.r[3 * col + row][j]);
+            let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
+            let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+            let mut lengths = [0.0; MAX_TENDONS];
+            for k in 0..model.n_tendons {
+                lengths[k] = dy.s[k][j];
+            }
             *d = LegEnd {
-                p: dy.p,
-                r: dy.r,
-                n: dy.r * n_body + y.r * model.k_se.component_mul(&dy.v),
-                m: dy.r * m_body + y.r * model.k_bt.component_mul(&dy.u),
-                lengths: dy.s,
+                p: Vector3::new(dy.p[0][j], dy.p[1][j], dy.p[2][j]),
+                r: dr,
+                n: dr * n_body + y.r * model.k_se.component_mul(&dv),
+                m: dr * m_body + y.r * model.k_bt.component_mul(&du),
+                lengths,
             };
         }
     }
@@ -288,8 +288,8 @@ fn rk4_step(
     // (weight in the sum, offset of the next stage)
     const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
     sc.y_stage = sc.y;
-    for (j, dy) in sc.dy[..nd].iter().enumerate() {
-        sc.dy_stage[j] = *dy;
+    if nd > 0 {
+        sc.dy_stage.assign(&sc.dy, nt);
     }
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
         sc.stage.eval(model, &sc.y_stage, tau, active, &mut sc.k)?;
@@ -301,22 +301,21 @@ fn rk4_step(
         if i < 3 {
             sc.y_stage.set_axpy(&sc.y, next * h, &sc.k, nt);
         }
-        for j in 0..nd {
-            let dtau = j.checked_sub(6);
-            sc.stage.tangent(model, &sc.dy_stage[j], dtau, &mut sc.dk);
+        if nd > 0 {
+            sc.stage.tangents(model, &sc.dy_stage, &mut sc.dk);
             if i == 0 {
-                sc.dacc[j] = sc.dk;
+                sc.dacc.assign(&sc.dk, nt);
             } else {
-                sc.dacc[j].axpy(weight, &sc.dk, nt);
+                sc.dacc.axpy(weight, &sc.dk, nt);
             }
             if i < 3 {
-                sc.dy_stage[j].set_axpy(&sc.dy[j], next * h, &sc.dk, nt);
+                sc.dy_stage.set_axpy(&sc.dy, next * h, &sc.dk, nt);
             }
         }
     }
     sc.y.axpy(h / 6.0, &sc.acc, nt);
-    for j in 0..nd {
-        sc.dy[j].axpy(h / 6.0, &sc.dacc[j], nt);
+    if nd > 0 {
+        sc.dy.axpy(h / 6.0, &sc.dacc, nt);
     }
     Ok(())
 }
@@ -331,11 +330,14 @@ fn apply_tendon_ends(
     nd: usize,
 ) {
     let y = sc.y;
+    let nt = model.n_tendons;
     // Pre-jump tangents (dy_stage is free between steps).
-    sc.dy_stage[..nd].copy_from_slice(&sc.dy[..nd]);
+    if nd > 0 {
+        sc.dy_stage.assign(&sc.dy, nt);
+    }
     let inv_se = model.k_se.map(|x| 1.0 / x);
     let inv_bt = model.k_bt.map(|x| 1.0 / x);
-    for k in 0..model.n_tendons {
+    for k in 0..nt {
         if ending & (1 << k) == 0 {
             continue;
         }
@@ -345,13 +347,20 @@ fn apply_tendon_ends(
         let t = w / len;
         sc.y.v += inv_se.component_mul(&t) * tau[k];
         sc.y.u += inv_bt.component_mul(&r_k.cross(&t)) * tau[k];
-        for (j, dy) in sc.dy[..nd].iter_mut().enumerate() {
-            let dw = sc.dy_stage[j].v + sc.dy_stage[j].u.cross(r_k);
+        let pre = &sc.dy_stage;
+        for j in 0..nd {
+            let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
+            let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
+            let dw = dv + du.cross(r_k);
             let dt = (dw - t * t.dot(&dw)) / len;
             let dtau = if j == 6 + k { 1.0 } else { 0.0 };
             let dforce = t * dtau + dt * tau[k];
-            dy.v += inv_se.component_mul(&dforce);
-            dy.u += inv_bt.component_mul(&(r_k.cross(&dforce)));
+            let jump_v = inv_se.component_mul(&dforce);
+            let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
+            for c in 0..3 {
+                sc.dy.v[c][j] += jump_v[c];
+                sc.dy.u[c][j] += jump_u[c];
+            }
         }
     }
 }

@@ -67,6 +67,37 @@ impl Ldlt6 {
     }
 }
 
+impl Ldlt6 {
+    /// Solves M x = b for `n` right-hand sides stored by component (`b[row][rhs]`).
+    #[inline]
+    pub fn solve_lanes<const N: usize>(&self, b: &mut [[f64; N]; 6], n: usize) {
+        for i in 1..6 {
+            for k in 0..i {
+                let l = self.l[i][k];
+                let (head, tail) = b.split_at_mut(i);
+                for j in 0..n {
+                    tail[0][j] -= l * head[k][j];
+                }
+            }
+        }
+        for i in 0..6 {
+            let d = self.inv_d[i];
+            for x in b[i][..n].iter_mut() {
+                *x *= d;
+            }
+        }
+        for i in (0..5).rev() {
+            for k in i + 1..6 {
+                let l = self.l[k][i];
+                let (head, tail) = b.split_at_mut(k);
+                for j in 0..n {
+                    head[i][j] -= l * tail[0][j];
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -89,6 +120,40 @@ mod tests {
             .solve([b[0], b[1], b[2], b[3], b[4], b[5]]);
         for i in 0..6 {
             assert!((sol[i] - x[i]).abs() < 1e-10, "{sol:?}");
+        }
+    }
+
+    #[test]
+    fn lane_solve_matches_single_solves() {
+        let a = Matrix6::from_fn(|i, j| ((i * 5 + j * 2) % 7) as f64 - 3.0);
+        let spd = a * a.transpose() + Matrix6::identity();
+        let mut m = [[0.0; 6]; 6];
+        for i in 0..6 {
+            for j in 0..6 {
+                m[i][j] = spd[(i, j)];
+            }
+        }
+        let f = Ldlt6::factor(&m).unwrap();
+        let mut lanes = [[0.0; 3]; 6];
+        for i in 0..6 {
+            for j in 0..3 {
+                lanes[i][j] = (i as f64 + 1.0) * (j as f64 - 1.0) + 0.5;
+            }
+        }
+        let mut solved = lanes;
+        f.solve_lanes(&mut solved, 3);
+        for j in 0..3 {
+            let single = f.solve([
+                lanes[0][j],
+                lanes[1][j],
+                lanes[2][j],
+                lanes[3][j],
+                lanes[4][j],
+                lanes[5][j],
+            ]);
+            for i in 0..6 {
+                assert!((single[i] - solved[i][j]).abs() < 1e-12);
+            }
         }
     }
 

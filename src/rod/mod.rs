@@ -4,6 +4,7 @@ pub mod integrate;
 pub mod ldlt6;
 pub mod model;
 pub mod rhs;
+pub mod tangents;
 pub mod tendon;
 
 pub use integrate::{

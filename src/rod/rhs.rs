@@ -20,6 +20,7 @@ use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::model::LegModel;
+use crate::rod::tangents::{MAX_DIRECTIONS, Tangents};
 
 /// The rod state (or its derivative, or a tangent): position p [m], rotation R, strains
 /// v, u [–, 1/m] and tendon path lengths s_k [m].
@@ -246,53 +247,94 @@ impl Stage {
         Ok(())
     }
 
-    /// The tangent of the last [`Stage::eval`] in direction `dy`, with tension derivative
-    /// `dtau` = (tendon index, dτ) for a tension direction or `None`.
-    pub fn tangent(
-        &self,
-        model: &LegModel,
-        dy: &RodState,
-        dtau: Option<usize>,
-        out: &mut RodState,
-    ) {
-        let (v, u) = (&self.v, &self.u);
-        let (dv, du) = (&dy.v, &dy.u);
-        let k_se_dv = model.k_se.component_mul(dv);
-        let k_bt_du = model.k_bt.component_mul(du);
-        let mut g_v =
-            dy.r.tr_mul(&model.weight_per_length) + du.cross(&self.n_body) + u.cross(&k_se_dv);
-        let mut g_u =
-            du.cross(&self.m_body) + u.cross(&k_bt_du) + dv.cross(&self.n_body) + v.cross(&k_se_dv);
+    /// The tangents of the last [`Stage::eval`] in all directions of `dy` at once:
+    /// direction j ≥ 6 also carries dτ_(j−6) = 1 (the tension directions).
+    pub fn tangents(&self, model: &LegModel, dy: &Tangents, out: &mut Tangents) {
+        let n = dy.n;
+        out.n = n;
+        let (v, u, rot) = (&self.v, &self.u, &self.r);
+        let f = &model.weight_per_length;
+        let (k_se, k_bt) = (&model.k_se, &model.k_bt);
+        let (nb, mb) = (&self.n_body, &self.m_body);
+        let mut g = [[0.0; MAX_DIRECTIONS]; 6];
+        for j in 0..n {
+            let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
+            let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+            let dr = Matrix3::from_column_slice(&[
+                dy.r[0][j], dy.r[1][j], dy.r[2][j], dy.r[3][j], dy.r[4][j], dy.r[5][j], dy.r[6][j],
+                dy.r[7][j], dy.r[8][j],
+            ]);
+            let k_se_dv = k_se.component_mul(&dv);
+            let k_bt_du = k_bt.component_mul(&du);
+            let g_v = dr.tr_mul(f) + du.cross(nb) + u.cross(&k_se_dv);
+            let g_u = du.cross(mb) + u.cross(&k_bt_du) + dv.cross(nb) + v.cross(&k_se_dv);
+            for c in 0..3 {
+                g[c][j] = g_v[c];
+                g[3 + c][j] = g_u[c];
+            }
+            let dp = dr * v + rot * dv;
+            let d_rot = times_hat(&dr, u) + times_hat(rot, &du);
+            for c in 0..3 {
+                out.p[c][j] = dp[c];
+            }
+            for c in 0..9 {
+                out.r[c][j] = d_rot[c];
+            }
+        }
         for k in 0..model.n_tendons {
             if self.active & (1 << k) == 0 {
-                out.s[k] = 0.0;
+                out.s[k][..n].fill(0.0);
                 continue;
             }
             let tp = &self.tendons[k];
             let r_k = &model.tendon_offsets[k];
-            let dw = dv + du.cross(r_k);
-            let dlen = tp.t.dot(&dw);
-            let dt = (dw - tp.t * dlen) / tp.len;
-            out.s[k] = dlen;
-            let dtau_k = if dtau == Some(k) { 1.0 } else { 0.0 };
-            if tp.c == 0.0 && dtau_k == 0.0 {
+            if tp.c == 0.0 {
                 // A slack tendon loads the rod only through its own tension direction.
+                for j in 0..n {
+                    let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
+                    let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+                    out.s[k][j] = tp.t.dot(&(dv + du.cross(r_k)));
+                }
+                let own = 6 + k;
+                if own < n {
+                    let df = tp.q / tp.len;
+                    let rdf = r_k.cross(&df);
+                    for c in 0..3 {
+                        g[c][own] += df[c];
+                        g[3 + c][own] += rdf[c];
+                    }
+                }
                 continue;
             }
-            let dyk = du.cross(&tp.w) + u.cross(&dw);
-            let dc = (dtau_k - tp.c * dlen) / tp.len;
-            let df =
-                tp.q * dc + (dyk - dt * tp.ty - tp.t * (dt.dot(&tp.y) + tp.t.dot(&dyk))) * tp.c;
-            g_v += df;
-            g_u += r_k.cross(&df);
+            for j in 0..n {
+                let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
+                let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+                let dw = dv + du.cross(r_k);
+                let dlen = tp.t.dot(&dw);
+                out.s[k][j] = dlen;
+                let dt = (dw - tp.t * dlen) / tp.len;
+                let dyk = du.cross(&tp.w) + u.cross(&dw);
+                let dtau = if j == 6 + k { 1.0 } else { 0.0 };
+                let dc = (dtau - tp.c * dlen) / tp.len;
+                let df =
+                    tp.q * dc + (dyk - dt * tp.ty - tp.t * (dt.dot(&tp.y) + tp.t.dot(&dyk))) * tp.c;
+                let rdf = r_k.cross(&df);
+                for c in 0..3 {
+                    g[c][j] += df[c];
+                    g[3 + c][j] += rdf[c];
+                }
+            }
         }
-        let dx = self
-            .factor
-            .solve([-g_v.x, -g_v.y, -g_v.z, -g_u.x, -g_u.y, -g_u.z]);
-        out.p = dy.r * v + self.r * dv;
-        out.r = times_hat(&dy.r, u) + times_hat(&self.r, du);
-        out.v = Vector3::new(dx[0], dx[1], dx[2]);
-        out.u = Vector3::new(dx[3], dx[4], dx[5]);
+        for row in g.iter_mut() {
+            for x in row[..n].iter_mut() {
+                *x = -*x;
+            }
+        }
+        self.factor.solve_lanes(&mut g, n);
+        for c in 0..3 {
+            out.v[c][..n].copy_from_slice(&g[c][..n]);
+            out.u[c][..n].copy_from_slice(&g[3 + c][..n]);
+        }
     }
 }
 
