@@ -27,6 +27,7 @@
 pub mod boundary;
 pub mod design;
 pub mod error;
+pub mod kinetostatics;
 pub mod linalg;
 pub mod model;
 pub mod newton;

@@ -81,6 +81,17 @@ impl Model {
         }
     }
 
+    /// A copy with every gravity load (legs and platform) scaled by `scale` and the tendon
+    /// pretension set to `pretension` [N] (for continuation).
+    pub fn with_homotopy(&self, scale: f64, pretension: f64) -> Self {
+        let mut m = self.clone();
+        m.leg.weight_per_length *= scale;
+        m.platform_weight *= scale;
+        m.pretension_offset = pretension_offset(&m.leg, pretension);
+        m.pretension = pretension;
+        m
+    }
+
     /// Tendons per leg n_t.
     pub fn n_tendons(&self) -> usize {
         self.leg.n_tendons
@@ -125,4 +136,11 @@ impl Model {
     pub fn translation(&self, leg: usize, q: &[f64]) -> f64 {
         q[leg * (self.pairs + 1) + self.pairs]
     }
+}
+
+/// δ_pre = τ_pre L (1/(EA)_t + n_t/(E A_b)) (MODEL.md §1).
+fn pretension_offset(leg: &LegModel, pretension: f64) -> f64 {
+    pretension
+        * leg.length
+        * (1.0 / leg.tendon_stiffness + leg.n_tendons as f64 / leg.axial_stiffness())
 }

@@ -42,6 +42,14 @@ pub trait NonlinearSystem {
 
     /// Weight of each row in the merit function (about 1 / its typical size).
     fn row_weights(&self, w: &mut DVector<f64>);
+
+    /// The point reached from `x` by the step `step` expressed in the Jacobian's local
+    /// coordinates (default: `x + step`; a rotation unknown overrides this to compose
+    /// rotations).
+    fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
+        out.copy_from(x);
+        *out += step;
+    }
 }
 
 /// Stopping and globalization settings.
@@ -176,6 +184,7 @@ pub fn solve<S: NonlinearSystem>(
     let mut norm = sc.r.norm();
     sc.history.push(norm);
     let mut radius = 0.0;
+    let mut successes = 0usize;
     let not_converged = |iterations, norm, reason| SolveError::NotConverged {
         iterations,
         residual_norm: norm,
@@ -290,8 +299,7 @@ pub fn solve<S: NonlinearSystem>(
                 predicted_sq += acc * acc;
             }
             let predicted = merit - predicted_sq;
-            sc.x_trial.copy_from(x);
-            sc.x_trial += &sc.step;
+            system.retract(x, &sc.step, &mut sc.x_trial);
             evaluations += 1;
             let actual = match system.residual(&sc.x_trial, &mut sc.r_trial) {
                 Ok(()) if sc.r_trial.iter().all(|v| v.is_finite()) => {
@@ -304,10 +312,16 @@ pub fn solve<S: NonlinearSystem>(
             } else {
                 -1.0
             };
-            if ratio < 0.25 {
-                radius = 0.25 * step_len.min(radius);
-            } else if ratio > 0.75 {
-                radius = radius.max(2.0 * step_len);
+            // MINPACK's update: halve on a poor step; expand to twice the step after a
+            // good one or after two acceptable ones in a row.
+            if ratio < 0.1 {
+                successes = 0;
+                radius = 0.5 * radius.min(step_len);
+            } else {
+                successes += 1;
+                if ratio >= 0.5 || successes > 1 {
+                    radius = radius.max(2.0 * step_len);
+                }
             }
             if ratio > 1e-4 && actual > 0.0 {
                 x.copy_from(&sc.x_trial);

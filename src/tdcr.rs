@@ -283,10 +283,22 @@ fn leg_start(state: &TdcrState, tensions: &[f64]) -> LegStart {
     }
 }
 
-/// The cold guess of MODEL.md §9: tensions from a linear constant-curvature model with
-/// slack (a small linear complementarity problem), strains at the base that balance those
-/// tensions and the external load on a straight rod.
+/// The cold guess of MODEL.md §9 for a robot whose base is the world frame: tensions
+/// from a linear constant-curvature model with slack (a small linear complementarity
+/// problem), strains at the base that balance those tensions and the external load on a
+/// straight rod.
 pub fn cold_guess(model: &LegModel, control: &TendonControl, wrench: &TipWrench) -> TdcrState {
+    cold_guess_at(model, &Matrix3::identity(), control, wrench)
+}
+
+/// [`cold_guess`] for a base with orientation `base_rotation` (the tip `wrench` and the
+/// weight are in the world frame).
+pub fn cold_guess_at(
+    model: &LegModel,
+    base_rotation: &Matrix3<f64>,
+    control: &TendonControl,
+    wrench: &TipWrench,
+) -> TdcrState {
     let nt = model.n_tendons;
     let (tensions, gammas) = match control {
         TendonControl::Tension(t) => (t.clone(), Vec::new()),
@@ -297,11 +309,13 @@ pub fn cold_guess(model: &LegModel, control: &TendonControl, wrench: &TipWrench)
         }
     };
     let len = model.length;
-    let weight = model.weight_per_length * len;
+    // Everything in the base frame.
+    let force = base_rotation.tr_mul(&wrench.force);
+    let moment = base_rotation.tr_mul(&wrench.moment);
+    let weight = base_rotation.tr_mul(&(model.weight_per_length * len));
     let axis = Vector3::z();
-    let mut n0 = wrench.force + weight;
-    let mut m0 =
-        wrench.moment + (axis * len).cross(&wrench.force) + (axis * (len / 2.0)).cross(&weight);
+    let mut n0 = force + weight;
+    let mut m0 = moment + (axis * len).cross(&force) + (axis * (len / 2.0)).cross(&weight);
     for k in 0..nt {
         n0 -= axis * tensions[k];
         m0 -= model.tendon_offsets[k].cross(&axis) * tensions[k];

@@ -1,0 +1,718 @@
+//! Forward and inverse kinetostatics of the parallel robot by shooting (MODEL.md §3):
+//! Newton on the boundary residual b with the exact Jacobian (or the finite-difference
+//! baseline), globalized by the dogleg trust region of [`crate::newton`].
+//!
+//! - FK: given q and the wrench, unknowns [p_ee (3), θ_ee (3), y_u (3 (6 + n_t))];
+//!   Jacobian [B_x B_u]. Rotation steps compose: R ← exp(δθ^) R.
+//! - IK (6-DoF design): given the pose and the wrench, unknowns [q (6), y_u];
+//!   Jacobian [B_q B_u].
+//!
+//! A cold start uses the straight home guess of MODEL.md §9 (legs straight, strains
+//! consistent with tensions from a constant-curvature estimate, γ never 0); if that fails
+//! for FK, the actuation is ramped from zero in steps (continuation).
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::boundary::{
+    BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    boundary_derivatives_fd, boundary_residual,
+};
+use crate::design::Tdpcr;
+use crate::error::{Error, SolveError, Violations};
+use crate::model::{Model, Pose};
+use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
+use crate::rod::Wrench;
+use crate::tdcr::{TendonControl, cold_guess_at};
+
+/// How the Newton Jacobian is obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JacobianMethod {
+    /// Exact, from forward sensitivities.
+    Exact,
+    /// The paper's finite-difference baseline.
+    FiniteDifference(FiniteDifference),
+}
+
+/// A solved (or guessed) configuration; serializes to JSON and is accepted as a warm start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotState {
+    /// Platform position p_ee [m].
+    pub position: [f64; 3],
+    /// Platform orientation as a rotation vector (axis × angle) [rad], world frame.
+    pub rotvec: [f64; 3],
+    /// Actuation q (per leg [q_b per pair, q_t]) [m].
+    pub q: Vec<f64>,
+    /// Leg unknowns y_u (per leg [γ (n_t), u(0) (3), v(0) (3)]).
+    pub y_u: Vec<f64>,
+}
+
+impl RobotState {
+    /// The platform pose.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            position: Vector3::from(self.position),
+            rotation: *Rotation3::new(Vector3::from(self.rotvec)).matrix(),
+        }
+    }
+}
+
+/// A converged solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// The configuration.
+    pub state: RobotState,
+    /// Newton work and final residual norm.
+    pub report: NewtonReport,
+    /// ‖b‖₂ after each iteration, starting with the initial guess.
+    pub residual_history: Vec<f64>,
+    /// Wall time of the solve [µs].
+    pub solve_time_us: f64,
+}
+
+impl Solution {
+    /// Tension of every tendon [N], per leg.
+    pub fn tensions(&self, model: &Model) -> Vec<Vec<f64>> {
+        let nu = model.n_leg_unknowns();
+        (0..3)
+            .map(|i| {
+                self.state.y_u[i * nu..i * nu + model.n_tendons()]
+                    .iter()
+                    .map(|&g| crate::rod::tendon::tension(g))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
+/// Solves FK and IK problems of one design; holds every buffer.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    model: Model,
+    boundary: BoundaryScratch,
+    blocks: BoundaryJacobians,
+    newton: NewtonScratch,
+    /// Newton settings (tolerance on ‖b‖₂ in SI units, iteration limit).
+    pub settings: NewtonSettings,
+    /// Jacobian used by Newton.
+    pub jacobian: JacobianMethod,
+}
+
+/// First continuation step in λ.
+const CONTINUATION_FIRST_STEP: f64 = 0.25;
+/// Pretension [N] of the continuation's start: every tendon taut (γ = 1, far from the
+/// γ = 0 trap of MODEL.md §9), relaxed to the design's pretension as λ → 1.
+const CONTINUATION_PRETENSION: f64 = 1.0;
+/// Newton iterations allowed per continuation step before the step is halved.
+const CONTINUATION_MAX_ITERATIONS: usize = 10;
+
+/// The continuation target at one λ.
+enum Target {
+    Forward(Vec<f64>),
+    Inverse(Pose),
+}
+
+/// What is being solved for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Problem<'a> {
+    Forward { q: &'a [f64] },
+    Inverse { pose: &'a Pose },
+}
+
+impl Solver {
+    /// A solver for a validated design.
+    pub fn new(design: &Tdpcr) -> Self {
+        let model = Model::new(design);
+        let settings = NewtonSettings::default();
+        let n = model.n_residuals();
+        Self {
+            boundary: BoundaryScratch::new(&model),
+            blocks: BoundaryJacobians::new(&model),
+            newton: NewtonScratch::new(n, settings.max_iterations),
+            model,
+            settings,
+            jacobian: JacobianMethod::Exact,
+        }
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The total wrench on the platform: its weight plus `extra`.
+    pub fn total_wrench(&self, extra: &Wrench) -> Wrench {
+        Wrench {
+            force: self.model.platform_weight + extra.force,
+            moment: extra.moment,
+        }
+    }
+
+    fn check_wrench(v: &mut Violations, w: &Wrench) {
+        for (i, x) in w.force.iter().chain(w.moment.iter()).enumerate() {
+            if !x.is_finite() {
+                v.push(format!("wrench[{i}]"), x, "a finite number");
+            }
+        }
+    }
+
+    fn check_init(&self, v: &mut Violations, init: Option<&RobotState>) {
+        if let Some(s) = init {
+            if s.q.len() != self.model.n_actuators() {
+                v.push(
+                    "init.q",
+                    format!("{} values", s.q.len()),
+                    &format!("{} values", self.model.n_actuators()),
+                );
+            }
+            let ny = 3 * self.model.n_leg_unknowns();
+            if s.y_u.len() != ny {
+                v.push(
+                    "init.y_u",
+                    format!("{} values", s.y_u.len()),
+                    &format!("{ny} values"),
+                );
+            }
+            let all = s.position.iter().chain(&s.rotvec).chain(&s.q).chain(&s.y_u);
+            if !all.clone().all(|x| x.is_finite()) {
+                v.push("init", "a non-finite value", "finite numbers");
+            }
+        }
+    }
+
+    /// Forward kinetostatics: the pose and leg states for actuation `q` under the platform
+    /// weight plus `extra` (world frame, at the platform centre).
+    ///
+    /// # Errors
+    /// [`Error::Input`] for a q of the wrong length or non-finite values;
+    /// [`Error::Solve`] with residual norm and iterations if Newton fails.
+    pub fn solve_fk(
+        &mut self,
+        q: &[f64],
+        extra: &Wrench,
+        init: Option<&RobotState>,
+    ) -> Result<Solution, Error> {
+        let mut v = Violations::default();
+        let n = self.model.n_actuators();
+        if q.len() != n {
+            v.push(
+                "q",
+                format!("{} values", q.len()),
+                &format!("{n} values: per leg [bend_x, (bend_y), translation]"),
+            );
+        }
+        for (i, x) in q.iter().enumerate() {
+            if !x.is_finite() {
+                v.push(format!("q[{i}]"), x, "a finite number [m]");
+            }
+        }
+        Self::check_wrench(&mut v, extra);
+        self.check_init(&mut v, init);
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        let wrench = self.total_wrench(extra);
+        let start = Instant::now();
+        let result = match init {
+            Some(s) => self.run(Problem::Forward { q }, &wrench, s.clone()),
+            None => self.cold_fk(q, &wrench),
+        };
+        finish(result, start)
+    }
+
+    /// Inverse kinetostatics (6-DoF design): actuation and leg states that hold the platform
+    /// at `pose` under its weight plus `extra`.
+    ///
+    /// # Errors
+    /// As [`Solver::solve_fk`]; [`Error::Input`] for the 9-DoF design (redundant: use the
+    /// least-norm or QP variant, not yet available).
+    pub fn solve_ik(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        init: Option<&RobotState>,
+    ) -> Result<Solution, Error> {
+        let mut v = Violations::default();
+        if self.model.pairs != 1 {
+            v.push(
+                "design",
+                "9-DoF (two tendon pairs per leg)",
+                "the 6-DoF design for square IK",
+            );
+        }
+        if !pose
+            .position
+            .iter()
+            .chain(pose.rotation.iter())
+            .all(|x| x.is_finite())
+        {
+            v.push("pose", "a non-finite value", "finite numbers");
+        }
+        Self::check_wrench(&mut v, extra);
+        self.check_init(&mut v, init);
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        let wrench = self.total_wrench(extra);
+        let start = Instant::now();
+        let guess = match init {
+            Some(s) => RobotState {
+                position: pose.position.into(),
+                rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                    .scaled_axis()
+                    .into(),
+                ..s.clone()
+            },
+            None => return finish(self.cold_ik(pose, &wrench), start),
+        };
+        finish(self.run(Problem::Inverse { pose }, &wrench, guess), start)
+    }
+
+    /// The straight home guess for platform `pose` and actuation `q`.
+    pub fn home_guess(&self, pose: &Pose, q: &[f64], wrench: &Wrench) -> RobotState {
+        home_guess(&self.model, pose, q, wrench)
+    }
+
+    /// Cold FK: Newton from the straight guess; if that fails, continuation from the
+    /// unloaded straight home configuration.
+    fn cold_fk(
+        &mut self,
+        q: &[f64],
+        wrench: &Wrench,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let pose = straight_leg_pose(&self.model, q);
+        let guess = self.home_guess(&pose, q, wrench);
+        let direct = self.run(Problem::Forward { q }, wrench, guess);
+        if direct.is_ok() {
+            return direct;
+        }
+        let q_final = q.to_vec();
+        self.continuation(wrench, &|lambda: f64| {
+            Target::Forward(q_final.iter().map(|x| x * lambda).collect())
+        })
+        .or(direct)
+    }
+
+    /// Cold IK: Newton from the straight guess; if that fails, continuation from the
+    /// unloaded straight home configuration.
+    fn cold_ik(
+        &mut self,
+        pose: &Pose,
+        wrench: &Wrench,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let guess = self.home_guess(pose, &straight_leg_translations(&self.model, pose), wrench);
+        let direct = self.run(Problem::Inverse { pose }, wrench, guess);
+        if direct.is_ok() {
+            return direct;
+        }
+        let (p, phi) = (
+            pose.position,
+            Rotation3::from_matrix_unchecked(pose.rotation).scaled_axis(),
+        );
+        self.continuation(wrench, &|lambda: f64| {
+            Target::Inverse(Pose {
+                position: p * lambda,
+                rotation: *Rotation3::new(phi * lambda).matrix(),
+            })
+        })
+        .or(direct)
+    }
+
+    /// Homotopy λ: 0 → 1 scaling the loads (gravity of legs and platform, external wrench),
+    /// relaxing an auxiliary pretension to the design's, and moving the target with
+    /// `target(λ)`. At λ = 0 the straight home configuration is an exact solution; each step is warm-started from the last. The step adapts: halved
+    /// on failure, doubled after an easy step.
+    fn continuation(
+        &mut self,
+        wrench: &Wrench,
+        target: &dyn Fn(f64) -> Target,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let mut total = NewtonReport {
+            iterations: 0,
+            residual_evaluations: 0,
+            residual_norm: f64::NAN,
+        };
+        let add = |total: &mut NewtonReport, r: &NewtonReport| {
+            total.iterations += r.iterations;
+            total.residual_evaluations += r.residual_evaluations;
+            total.residual_norm = r.residual_norm;
+        };
+        let zero = vec![0.0; self.model.n_actuators()];
+        let home = straight_leg_pose(&self.model, &zero);
+        let tau0 = CONTINUATION_PRETENSION.max(self.model.pretension);
+        let start_model = self.model.with_homotopy(0.0, tau0);
+        let mut state = home_guess(&start_model, &home, &zero, &Wrench::default());
+        let mut lambda: f64 = 0.0;
+        let mut step: f64 = CONTINUATION_FIRST_STEP;
+        let intermediate = NewtonSettings {
+            tolerance: self.settings.tolerance.max(1e-7),
+            max_iterations: CONTINUATION_MAX_ITERATIONS,
+            ..self.settings
+        };
+        let last_settings = NewtonSettings {
+            max_iterations: CONTINUATION_MAX_ITERATIONS.min(self.settings.max_iterations),
+            ..self.settings
+        };
+        let mut failures = 0;
+        loop {
+            let next = (lambda + step).min(1.0);
+            let last = next >= 1.0;
+            let settings = if last { last_settings } else { intermediate };
+            let scaled = self
+                .model
+                .with_homotopy(next, tau0 + (self.model.pretension - tau0) * next);
+            let w = Wrench {
+                force: wrench.force * next,
+                moment: wrench.moment * next,
+            };
+            let mut guess = state.clone();
+            let problem_target = target(next);
+            let result = match &problem_target {
+                Target::Forward(q) => {
+                    guess.q = q.clone();
+                    self.run_with(Some(&scaled), &settings, Problem::Forward { q }, &w, guess)
+                }
+                Target::Inverse(pose) => self.run_with(
+                    Some(&scaled),
+                    &settings,
+                    Problem::Inverse { pose },
+                    &w,
+                    guess,
+                ),
+            };
+            match result {
+                Ok((s, r)) => {
+                    add(&mut total, &r);
+                    state = s;
+                    lambda = next;
+                    if last {
+                        return Ok((state, total));
+                    }
+                    if r.iterations <= 4 {
+                        step *= 2.0;
+                    }
+                }
+                Err(e) => {
+                    if let SolveError::NotConverged { iterations, .. } = e {
+                        total.iterations += iterations;
+                    }
+                    failures += 1;
+                    step /= 2.0;
+                    if step < 1.0 / 64.0 || failures > 12 {
+                        return Err(match e {
+                            SolveError::NotConverged {
+                                residual_norm,
+                                tolerance,
+                                ..
+                            } => SolveError::NotConverged {
+                                iterations: total.iterations,
+                                residual_norm,
+                                tolerance,
+                                reason: "continuation from the home configuration stalled",
+                            },
+                            other => other,
+                        });
+                    }
+                }
+            }
+        }
+    }
+
+    /// Newton from `guess` on `problem` with the solver's model.
+    fn run(
+        &mut self,
+        problem: Problem,
+        wrench: &Wrench,
+        guess: RobotState,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let settings = self.settings;
+        self.run_with(None, &settings, problem, wrench, guess)
+    }
+
+    /// Newton from `guess` on `problem`, with `scaled` replacing the model if given.
+    fn run_with(
+        &mut self,
+        scaled: Option<&Model>,
+        settings: &NewtonSettings,
+        problem: Problem,
+        wrench: &Wrench,
+        guess: RobotState,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let model = scaled.unwrap_or(&self.model);
+        let n_u = 3 * model.n_leg_unknowns();
+        let (mut x, n_head) = match problem {
+            Problem::Forward { .. } => {
+                let mut x = DVector::zeros(6 + n_u);
+                x.rows_mut(0, 3).copy_from_slice(&guess.position);
+                x.rows_mut(3, 3).copy_from_slice(&guess.rotvec);
+                x.rows_mut(6, n_u).copy_from_slice(&guess.y_u);
+                (x, 6)
+            }
+            Problem::Inverse { .. } => {
+                let nq = model.n_actuators();
+                let mut x = DVector::zeros(nq + n_u);
+                x.rows_mut(0, nq).copy_from_slice(&guess.q);
+                x.rows_mut(nq, n_u).copy_from_slice(&guess.y_u);
+                (x, nq)
+            }
+        };
+        let mut system = ShootingSystem {
+            model,
+            boundary: &mut self.boundary,
+            blocks: &mut self.blocks,
+            method: self.jacobian,
+            problem,
+            wrench,
+        };
+        let report = newton::solve(&mut system, &mut x, settings, &mut self.newton)?;
+        let y_u = x.rows(n_head, n_u).iter().copied().collect();
+        let state = match problem {
+            Problem::Forward { q } => RobotState {
+                position: [x[0], x[1], x[2]],
+                rotvec: [x[3], x[4], x[5]],
+                q: q.to_vec(),
+                y_u,
+            },
+            Problem::Inverse { pose } => RobotState {
+                position: pose.position.into(),
+                rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                    .scaled_axis()
+                    .into(),
+                q: x.rows(0, n_head).iter().copied().collect(),
+                y_u,
+            },
+        };
+        Ok((state, report))
+    }
+
+    /// ‖b‖₂ after each iteration of the last solve.
+    pub fn residual_history(&self) -> &[f64] {
+        self.newton.residual_history()
+    }
+
+    /// The residual and exact blocks at a state (for analysis and tests).
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] if a leg integration blows up.
+    pub fn blocks_at(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+    ) -> Result<(DVector<f64>, &BoundaryJacobians), SolveError> {
+        let wrench = self.total_wrench(extra);
+        let pose = state.pose();
+        let p = BoundaryPoint {
+            pose: &pose,
+            q: &state.q,
+            wrench: &wrench,
+            y_u: &state.y_u,
+        };
+        let mut r = DVector::zeros(self.model.n_residuals());
+        boundary_derivatives(
+            &self.model,
+            &mut self.boundary,
+            &p,
+            &mut r,
+            &mut self.blocks,
+        )?;
+        Ok((r, &self.blocks))
+    }
+}
+
+/// The straight home guess (MODEL.md §9) for platform `pose` and actuation `q` under the
+/// loads of `m`: legs straight, each carrying a third of `wrench`, tensions from the
+/// constant-curvature estimate, base strains consistent with them.
+pub fn home_guess(m: &Model, pose: &Pose, q: &[f64], wrench: &Wrench) -> RobotState {
+    let share = Wrench {
+        force: wrench.force / 3.0,
+        moment: Vector3::zeros(),
+    };
+    let mut y_u = Vec::with_capacity(3 * m.n_leg_unknowns());
+    for i in 0..3 {
+        let d = m.tendon_displacements(i, q);
+        let control = TendonControl::Displacement(d[..m.n_tendons()].to_vec());
+        let g = cold_guess_at(&m.leg, &m.bases[i].rotation, &control, &share);
+        y_u.extend(g.gammas);
+        y_u.extend(g.u0);
+        y_u.extend(g.v0);
+    }
+    RobotState {
+        position: pose.position.into(),
+        rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+            .scaled_axis()
+            .into(),
+        q: q.to_vec(),
+        y_u,
+    }
+}
+
+fn finish(
+    result: Result<(RobotState, NewtonReport), SolveError>,
+    start: Instant,
+) -> Result<Solution, Error> {
+    let (state, report) = result?;
+    Ok(Solution {
+        state,
+        report,
+        residual_history: Vec::new(),
+        solve_time_us: start.elapsed().as_secs_f64() * 1e6,
+    })
+}
+
+/// Base translations that put straight legs' joints closest to the coupling points of
+/// `pose`: q_t,i = t_i · (joint_i − home joint_i); bending zero.
+pub fn straight_leg_translations(model: &Model, pose: &Pose) -> Vec<f64> {
+    let mut q = vec![0.0; model.n_actuators()];
+    for i in 0..3 {
+        let joint = pose.position + pose.rotation * model.coupling_points[i];
+        q[i * (model.pairs + 1) + model.pairs] =
+            model.tangents[i].dot(&(joint - model.coupling_points[i]));
+    }
+    q
+}
+
+/// The platform pose that best fits straight legs on bases translated by q (Kabsch).
+pub fn straight_leg_pose(model: &Model, q: &[f64]) -> Pose {
+    let joints: Vec<Vector3<f64>> = (0..3)
+        .map(|i| model.coupling_points[i] + model.tangents[i] * model.translation(i, q))
+        .collect();
+    let centroid = (joints[0] + joints[1] + joints[2]) / 3.0;
+    let body_centroid =
+        (model.coupling_points[0] + model.coupling_points[1] + model.coupling_points[2]) / 3.0;
+    let mut h = Matrix3::zeros();
+    for i in 0..3 {
+        h += (model.coupling_points[i] - body_centroid) * (joints[i] - centroid).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u.expect("requested"), svd.v_t.expect("requested"));
+    let mut d = Matrix3::identity();
+    if (vt.transpose() * u.transpose()).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    let rotation = vt.transpose() * d * u.transpose();
+    Pose {
+        position: centroid - rotation * body_centroid,
+        rotation,
+    }
+}
+
+/// The shooting problem as a [`NonlinearSystem`].
+struct ShootingSystem<'a> {
+    model: &'a Model,
+    boundary: &'a mut BoundaryScratch,
+    blocks: &'a mut BoundaryJacobians,
+    method: JacobianMethod,
+    problem: Problem<'a>,
+    wrench: &'a Wrench,
+}
+
+impl ShootingSystem<'_> {
+    fn head(&self) -> usize {
+        match self.problem {
+            Problem::Forward { .. } => 6,
+            Problem::Inverse { .. } => self.model.n_actuators(),
+        }
+    }
+
+    /// Evaluates the residual (and blocks if `jac` is given) at x.
+    fn evaluate(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), SolveError> {
+        let head = self.head();
+        let (pose, q): (Pose, &[f64]) = match self.problem {
+            Problem::Forward { q } => (
+                Pose {
+                    position: Vector3::new(x[0], x[1], x[2]),
+                    rotation: *Rotation3::new(Vector3::new(x[3], x[4], x[5])).matrix(),
+                },
+                q,
+            ),
+            Problem::Inverse { pose } => (*pose, &x.as_slice()[..head]),
+        };
+        let p = BoundaryPoint {
+            pose: &pose,
+            q,
+            wrench: self.wrench,
+            y_u: &x.as_slice()[head..],
+        };
+        let Some(jac) = jac else {
+            return boundary_residual(self.model, self.boundary, &p, r);
+        };
+        match self.method {
+            JacobianMethod::Exact => {
+                boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?
+            }
+            JacobianMethod::FiniteDifference(m) => {
+                boundary_derivatives_fd(self.model, self.boundary, &p, m, r, self.blocks)?
+            }
+        }
+        let lead = match self.problem {
+            Problem::Forward { .. } => &self.blocks.b_x,
+            Problem::Inverse { .. } => &self.blocks.b_q,
+        };
+        jac.columns_mut(0, head).copy_from(lead);
+        jac.columns_mut(head, self.blocks.b_u.ncols())
+            .copy_from(&self.blocks.b_u);
+        Ok(())
+    }
+}
+
+impl NonlinearSystem for ShootingSystem<'_> {
+    fn dim(&self) -> usize {
+        self.model.n_residuals()
+    }
+
+    fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.evaluate(x, r, None)
+    }
+
+    fn residual_and_jacobian(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: &mut DMatrix<f64>,
+    ) -> Result<(), SolveError> {
+        self.evaluate(x, r, Some(jac))
+    }
+
+    fn row_weights(&self, w: &mut DVector<f64>) {
+        let leg = &self.model.leg;
+        let ei = leg.bending_stiffness();
+        let len = leg.length;
+        let force = len * len / ei;
+        let moment = len / ei;
+        let length = 1.0 / leg.max_offset().max(1e-6);
+        let nu = self.model.n_leg_unknowns();
+        for i in 0..w.len() {
+            w[i] = if i < 3 {
+                force
+            } else if i < 6 {
+                moment
+            } else {
+                match (i - 6) % nu {
+                    0..3 => 1.0 / len,
+                    3..6 => moment,
+                    _ => length,
+                }
+            };
+        }
+    }
+
+    fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
+        out.copy_from(x);
+        *out += step;
+        if let Problem::Forward { .. } = self.problem {
+            let r = Rotation3::new(Vector3::new(step[3], step[4], step[5]))
+                * Rotation3::new(Vector3::new(x[3], x[4], x[5]));
+            let phi = r.scaled_axis();
+            for c in 0..3 {
+                out[3 + c] = phi[c];
+            }
+        }
+    }
+}
