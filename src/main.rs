@@ -8,7 +8,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use tdpcr::boundary::FiniteDifference;
 use tdpcr::error::Error;
+use tdpcr::kinetostatics::{JacobianMethod, RobotState, Solution, Solver};
+use tdpcr::rod::Wrench;
 use tdpcr::tdcr::{TdcrSolver, TdcrState, TendonControl, TipWrench, rows};
 use tdpcr::{Tdcr, Tdpcr};
 
@@ -24,8 +27,73 @@ struct Cli {
 enum Command {
     /// Solve one tendon-driven continuum robot (TDCR) under tendon tensions or displacements.
     Tdcr(TdcrArgs),
+    /// Forward kinetostatics of a parallel robot: the platform pose for actuation q.
+    Fk(FkArgs),
+    /// Inverse kinetostatics of a parallel robot (6-DoF design): the actuation for a pose.
+    Ik(IkArgs),
     /// Load and validate a design file (TDCR or TDPCR) and print a summary.
     Validate(ValidateArgs),
+}
+
+/// Jacobian used by Newton.
+#[derive(Clone, Copy, ValueEnum, Default)]
+enum JacobianArg {
+    /// Exact, from forward sensitivities.
+    #[default]
+    Exact,
+    /// The paper's forward finite differences.
+    Fd,
+    /// Central finite differences.
+    FdCentral,
+}
+
+/// Options shared by `fk` and `ik`.
+#[derive(clap::Args)]
+struct SolveArgs {
+    /// Extra wrench FX,FY,FZ,MX,MY,MZ [N, N·m] on the platform centre, world frame, added
+    /// to the platform's weight.
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
+    wrench: Option<Values>,
+    /// Warm start: a JSON file with a `state` (the output of fk/ik) or the state itself.
+    #[arg(long)]
+    init: Option<PathBuf>,
+    /// Jacobian used by Newton.
+    #[arg(long, value_enum, default_value_t)]
+    jacobian: JacobianArg,
+    /// Newton tolerance on the Euclidean norm of the SI residual.
+    #[arg(long, default_value_t = 1e-10)]
+    tolerance: f64,
+    /// Most Newton iterations.
+    #[arg(long, default_value_t = 60)]
+    max_iterations: usize,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
+}
+
+#[derive(clap::Args)]
+struct FkArgs {
+    /// Design file (RON, `Tdpcr(...)`), e.g. designs/lilge2022.ron.
+    design: PathBuf,
+    /// Actuation q [m]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
+    q: Values,
+    #[command(flatten)]
+    solve: SolveArgs,
+}
+
+#[derive(clap::Args)]
+struct IkArgs {
+    /// Design file (RON, `Tdpcr(...)`).
+    design: PathBuf,
+    /// Platform position X,Y,Z [m], world frame.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    position: Vector3<f64>,
+    /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) [rad], world frame.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    rotvec: Option<Vector3<f64>>,
+    #[command(flatten)]
+    solve: SolveArgs,
 }
 
 #[derive(Clone, Copy, ValueEnum, Default)]
@@ -176,6 +244,190 @@ fn run_tdcr(args: &TdcrArgs) -> Result<(), Error> {
     Ok(())
 }
 
+#[derive(Serialize)]
+struct ParallelOutput {
+    converged: bool,
+    position: [f64; 3],
+    rotation: [[f64; 3]; 3],
+    rotvec: [f64; 3],
+    q: Vec<f64>,
+    /// Tendon tensions per leg [N].
+    tensions: Vec<Vec<f64>>,
+    iterations: usize,
+    residual_evaluations: usize,
+    residual_norm: f64,
+    solve_time_us: f64,
+    state: RobotState,
+}
+
+#[derive(Serialize)]
+struct FailureOutput {
+    converged: bool,
+    error: String,
+    iterations: Option<usize>,
+    residual_norm: Option<f64>,
+}
+
+/// A solver configured from the shared options, and the extra wrench.
+fn prepare(
+    design: &std::path::Path,
+    args: &SolveArgs,
+) -> Result<(Solver, Wrench, Option<RobotState>), Error> {
+    let design = Tdpcr::from_ron_file(design)?;
+    let mut v = tdpcr::error::Violations::default();
+    let wrench = match &args.wrench {
+        None => Wrench::default(),
+        Some(w) if w.0.len() == 6 => Wrench {
+            force: Vector3::new(w.0[0], w.0[1], w.0[2]),
+            moment: Vector3::new(w.0[3], w.0[4], w.0[5]),
+        },
+        Some(w) => {
+            v.push(
+                "--wrench",
+                format!("{} values", w.0.len()),
+                "6 values FX,FY,FZ,MX,MY,MZ",
+            );
+            Wrench::default()
+        }
+    };
+    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
+        v.push("--tolerance", args.tolerance, "> 0");
+    }
+    let init = match &args.init {
+        None => None,
+        Some(path) => match read_state(path) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                v.push("--init", path.display(), &e);
+                None
+            }
+        },
+    };
+    if !v.0.is_empty() {
+        return Err(Error::Input(v));
+    }
+    let mut solver = Solver::new(&design);
+    solver.settings.tolerance = args.tolerance;
+    solver.settings.max_iterations = args.max_iterations;
+    solver.jacobian = match args.jacobian {
+        JacobianArg::Exact => JacobianMethod::Exact,
+        JacobianArg::Fd => JacobianMethod::FiniteDifference(FiniteDifference::Forward),
+        JacobianArg::FdCentral => JacobianMethod::FiniteDifference(FiniteDifference::Central),
+    };
+    Ok((solver, wrench, init))
+}
+
+/// Reads a warm-start state: a JSON object with a `state` field, or the state itself.
+fn read_state(path: &std::path::Path) -> Result<RobotState, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("a readable JSON file ({e})"))?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("valid JSON ({e})"))?;
+    let state = value.get("state").cloned().unwrap_or(value);
+    serde_json::from_value(state)
+        .map_err(|e| format!("a state with position, rotvec, q, y_u ({e})"))
+}
+
+/// Prints a parallel-robot result (or failure) in the chosen format.
+fn report(solver: &Solver, result: Result<Solution, Error>, format: Format) -> Result<(), Error> {
+    let sol = match result {
+        Ok(sol) => sol,
+        Err(e) => {
+            if let (Format::Json, Error::Solve(se)) = (format, &e) {
+                let (iterations, residual_norm) = match se {
+                    tdpcr::SolveError::NotConverged {
+                        iterations,
+                        residual_norm,
+                        ..
+                    } => (Some(*iterations), Some(*residual_norm)),
+                    _ => (None, None),
+                };
+                let out = FailureOutput {
+                    converged: false,
+                    error: e.to_string(),
+                    iterations,
+                    residual_norm,
+                };
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&out).expect("plain data serializes")
+                );
+            }
+            return Err(e);
+        }
+    };
+    let pose = sol.state.pose();
+    let out = ParallelOutput {
+        converged: true,
+        position: sol.state.position,
+        rotation: rows(&pose.rotation),
+        rotvec: sol.state.rotvec,
+        q: sol.state.q.clone(),
+        tensions: sol.tensions(solver.model()),
+        iterations: sol.report.iterations,
+        residual_evaluations: sol.report.residual_evaluations,
+        residual_norm: sol.report.residual_norm,
+        solve_time_us: sol.solve_time_us,
+        state: sol.state.clone(),
+    };
+    match format {
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&out).expect("plain data serializes")
+        ),
+        Format::Text => {
+            let p = out.position;
+            let r = out.rotvec;
+            println!(
+                "position [m]      {:>12.6} {:>12.6} {:>12.6}",
+                p[0], p[1], p[2]
+            );
+            println!(
+                "rotvec [rad]      {:>12.6} {:>12.6} {:>12.6}",
+                r[0], r[1], r[2]
+            );
+            println!("q [m]             {:?}", out.q);
+            for (i, t) in out.tensions.iter().enumerate() {
+                println!("leg {i} tensions [N] {t:?}");
+            }
+            println!(
+                "converged in {} iterations ({} residual evaluations, {:.0} µs), residual norm {:.2e}",
+                out.iterations, out.residual_evaluations, out.solve_time_us, out.residual_norm
+            );
+        }
+    }
+    Ok(())
+}
+
+fn run_fk(args: &FkArgs) -> Result<(), Error> {
+    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
+    let result = solver.solve_fk(&args.q.0, &wrench, init.as_ref());
+    report(&solver, result, args.solve.format)
+}
+
+fn run_ik(args: &IkArgs) -> Result<(), Error> {
+    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
+    let rotvec = args.rotvec.unwrap_or_default();
+    if !rotvec
+        .iter()
+        .chain(args.position.iter())
+        .all(|x| x.is_finite())
+    {
+        let mut v = tdpcr::error::Violations::default();
+        v.push(
+            "--position/--rotvec",
+            "a non-finite value",
+            "finite numbers",
+        );
+        return Err(Error::Input(v));
+    }
+    let pose = tdpcr::model::Pose {
+        position: args.position,
+        rotation: *nalgebra::Rotation3::new(rotvec).matrix(),
+    };
+    let result = solver.solve_ik(&pose, &wrench, init.as_ref());
+    report(&solver, result, args.solve.format)
+}
+
 fn run_validate(args: &ValidateArgs) -> Result<(), Error> {
     let text = std::fs::read_to_string(&args.design).map_err(|source| tdpcr::DesignError::Io {
         path: args.design.clone(),
@@ -210,6 +462,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Tdcr(a) => run_tdcr(a),
+        Command::Fk(a) => run_fk(a),
+        Command::Ik(a) => run_ik(a),
         Command::Validate(a) => run_validate(a),
     };
     match result {

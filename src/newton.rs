@@ -126,11 +126,6 @@ impl NewtonScratch {
         &self.history
     }
 
-    /// The Jacobian at the final iterate of the last solve.
-    pub fn jacobian(&self) -> &DMatrix<f64> {
-        &self.jac
-    }
-
     /// The residual F at the final iterate of the last solve (SI).
     pub fn residual(&self) -> &DVector<f64> {
         &self.r
@@ -177,12 +172,23 @@ pub fn solve<S: NonlinearSystem>(
     );
     system.row_weights(&mut sc.weights);
     sc.history.clear();
-    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+    // The residual alone first: a warm start that already satisfies the tolerance costs
+    // no Jacobian.
+    system.residual(x, &mut sc.r)?;
     let mut evaluations = 1;
     let mut iterations = 0;
-    let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut norm = sc.r.norm();
     sc.history.push(norm);
+    if norm <= settings.tolerance {
+        return Ok(NewtonReport {
+            iterations,
+            residual_evaluations: evaluations,
+            residual_norm: norm,
+        });
+    }
+    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+    evaluations += 1;
+    let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut radius = 0.0;
     let mut successes = 0usize;
     let not_converged = |iterations, norm, reason| SolveError::NotConverged {
@@ -341,11 +347,15 @@ pub fn solve<S: NonlinearSystem>(
             }
         }
         iterations += 1;
+        sc.r.copy_from(&sc.r_trial);
+        norm = sc.r.norm();
+        sc.history.push(norm);
+        if norm <= settings.tolerance {
+            continue; // converged: reported at the top of the loop, no Jacobian needed
+        }
         evaluations += 1;
         system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
         merit = weighted_norm_sq(&sc.r, &sc.weights);
-        norm = sc.r.norm();
-        sc.history.push(norm);
     }
 }
 

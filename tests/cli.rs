@@ -169,3 +169,123 @@ fn malformed_and_invalid_files_exit_2_with_location() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("6-DoF"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn design() -> String {
+    design_path("lilge2022.ron").display().to_string()
+}
+
+#[test]
+fn fk_json_has_the_documented_keys_and_its_state_warm_starts() {
+    let o = tdpcr(&[
+        "fk",
+        &design(),
+        "--q",
+        "0.002,0.01,0,0,0,0",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "position",
+        "rotation",
+        "q",
+        "tensions",
+        "iterations",
+        "residual_norm",
+        "converged",
+        "solve_time_us",
+        "state",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["converged"], serde_json::Value::Bool(true));
+    assert_eq!(v["tensions"].as_array().unwrap().len(), 3);
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-fk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("state.json");
+    std::fs::write(&path, &o.stdout).unwrap();
+    let o2 = tdpcr(&[
+        "fk",
+        &design(),
+        "--q",
+        "0.002,0.01,0,0,0,0",
+        "--init",
+        path.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    let v2: serde_json::Value = serde_json::from_slice(&o2.stdout).unwrap();
+    assert_eq!(v2["iterations"].as_u64(), Some(0));
+    // IK of that pose from the FK state, with the finite-difference Jacobian.
+    let p = v["position"].as_array().unwrap();
+    let r = v["state"]["rotvec"].as_array().unwrap();
+    let pos = format!("{},{},{}", p[0], p[1], p[2]);
+    let rot = format!("{},{},{}", r[0], r[1], r[2]);
+    let o3 = tdpcr(&[
+        "ik",
+        &design(),
+        "--position",
+        &pos,
+        "--rotvec",
+        &rot,
+        "--init",
+        path.to_str().unwrap(),
+        "--jacobian",
+        "fd",
+        "--tolerance",
+        "1e-9",
+        "--format",
+        "json",
+    ]);
+    assert!(o3.status.success(), "{}", stderr(&o3));
+    let v3: serde_json::Value = serde_json::from_slice(&o3.stdout).unwrap();
+    let q: Vec<f64> = v3["q"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert!(
+        (q[0] - 0.002).abs() < 1e-7 && (q[1] - 0.01).abs() < 1e-7,
+        "{q:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn fk_and_ik_report_bad_input_and_failures() {
+    let o = tdpcr(&["fk", &design(), "--q", "0,0,0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("q = 3 values: expected 6 values"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&["fk", &design(), "--q", "0,0,0,0,0,0", "--wrench", "1,2"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--wrench = 2 values"), "{}", stderr(&o));
+    let o = tdpcr(&[
+        "fk",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--init",
+        "/nonexistent.json",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = tdpcr(&[
+        "ik",
+        &design(),
+        "--position",
+        "0,0,0.6",
+        "--max-iterations",
+        "5",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["converged"], serde_json::Value::Bool(false));
+    assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
+}

@@ -1,0 +1,208 @@
+//! Forward and inverse kinetostatics of the parallel robot.
+
+mod common;
+
+use common::design_path;
+use nalgebra::{Rotation3, Vector3};
+use tdpcr::Tdpcr;
+use tdpcr::error::Error;
+use tdpcr::kinetostatics::{RobotState, Solver};
+use tdpcr::model::Model;
+use tdpcr::rod::tendon::tension;
+use tdpcr::rod::{LegEnd, LegScratch, LegStart, Wrench, integrate_leg};
+
+fn solver(file: &str) -> Solver {
+    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap())
+}
+
+/// Platform equilibrium and joint conditions recomputed from fresh leg integrations,
+/// independently of the boundary residual code. Returns the worst violation in SI units.
+fn independent_check(model: &Model, state: &RobotState, wrench: &Wrench) -> f64 {
+    let pose = state.pose();
+    let nu = model.n_leg_unknowns();
+    let nt = model.n_tendons();
+    let mut force = Vector3::zeros();
+    let mut moment = Vector3::zeros();
+    let mut worst: f64 = 0.0;
+    for i in 0..3 {
+        let y = &state.y_u[i * nu..(i + 1) * nu];
+        let mut tensions = [0.0; tdpcr::design::MAX_TENDONS];
+        for k in 0..nt {
+            tensions[k] = tension(y[k]);
+        }
+        let q_t = state.q[i * (model.pairs + 1) + model.pairs];
+        let start = LegStart {
+            base: tdpcr::rod::Frame {
+                position: model.bases[i].position + model.tangents[i] * q_t,
+                rotation: model.bases[i].rotation,
+            },
+            u0: Vector3::new(y[nt], y[nt + 1], y[nt + 2]),
+            v0: Vector3::new(y[nt + 3], y[nt + 4], y[nt + 5]),
+            tensions,
+        };
+        let mut end = LegEnd::zeros();
+        integrate_leg(&model.leg, &start, &mut LegScratch::new(), &mut end, None).unwrap();
+        let link = end.r * Vector3::z() * model.coupling_offset;
+        let joint = end.p + link;
+        let expected_joint = pose.position + pose.rotation * model.coupling_points[i];
+        worst = worst.max((joint - expected_joint).norm());
+        // No moment in the spherical joint.
+        worst = worst.max((end.m + (-link).cross(&end.n)).norm());
+        force += end.n;
+        moment += (pose.rotation * model.coupling_points[i]).cross(&end.n);
+    }
+    worst = worst.max((force - wrench.force).norm());
+    worst.max((moment - wrench.moment).norm())
+}
+
+#[test]
+fn fk_at_home_converges_and_the_platform_is_in_equilibrium() {
+    let mut s = solver("lilge2022.ron");
+    let sol = s.solve_fk(&[0.0; 6], &Wrench::default(), None).unwrap();
+    assert!(sol.report.residual_norm <= 1e-10);
+    let total = s.total_wrench(&Wrench::default());
+    let err = independent_check(s.model(), &sol.state, &total);
+    assert!(err < 1e-9, "independent equilibrium check: {err:.2e}");
+    // The platform sags under its weight.
+    assert!(
+        sol.state.position[2] < -0.005,
+        "z = {}",
+        sol.state.position[2]
+    );
+    for t in sol.tensions(s.model()).iter().flatten() {
+        assert!(t.is_finite() && *t >= 0.0);
+    }
+}
+
+#[test]
+fn fk_with_an_external_wrench_balances_it() {
+    let mut s = solver("lilge2022.ron");
+    let home = s.solve_fk(&[0.0; 6], &Wrench::default(), None).unwrap();
+    let extra = Wrench {
+        force: Vector3::new(0.05, -0.02, 0.1),
+        moment: Vector3::new(0.0, 0.0, 0.002),
+    };
+    let sol = s.solve_fk(&[0.0; 6], &extra, Some(&home.state)).unwrap();
+    let err = independent_check(s.model(), &sol.state, &s.total_wrench(&extra));
+    assert!(err < 1e-9, "independent equilibrium check: {err:.2e}");
+}
+
+#[test]
+fn ik_of_an_fk_pose_returns_its_actuation_and_fk_of_that_returns_the_pose() {
+    let mut s = solver("lilge2022.ron");
+    let w = Wrench::default();
+    let q = [0.004, 0.02, -0.003, -0.01, 0.002, 0.03];
+    let fk = s.solve_fk(&q, &w, None).unwrap();
+    let pose = fk.state.pose();
+    // IK from a start away from the answer: actuation off by 2 mm / 5 mm.
+    let mut start = fk.state.clone();
+    for (k, x) in start.q.iter_mut().enumerate() {
+        *x += if k % 2 == 0 { 0.002 } else { -0.005 };
+    }
+    let ik = s.solve_ik(&pose, &w, Some(&start)).unwrap();
+    assert!(ik.report.iterations > 0);
+    for (a, b) in ik.state.q.iter().zip(&q) {
+        assert!((a - b).abs() < 1e-8, "IK q {:?} vs {q:?}", ik.state.q);
+    }
+    // FK of the IK actuation, from a perturbed pose, lands on the pose.
+    let mut start = ik.state.clone();
+    start.position[0] += 0.003;
+    start.rotvec[2] += 0.02;
+    let again = s.solve_fk(&ik.state.q, &w, Some(&start)).unwrap();
+    let back = again.state.pose();
+    assert!(
+        (back.position - pose.position).norm() < 1e-9,
+        "position error {:.2e}",
+        (back.position - pose.position).norm()
+    );
+    let angle = Rotation3::from_matrix_unchecked(back.rotation * pose.rotation.transpose()).angle();
+    assert!(angle < 1e-9, "rotation error {angle:.2e} rad");
+}
+
+#[test]
+fn permuting_the_legs_actuation_rotates_the_pose_by_120_degrees() {
+    let mut s = solver("lilge2022.ron");
+    let w = Wrench::default();
+    let q = [0.003, 0.01, -0.002, -0.02, 0.001, 0.015];
+    // Leg i+1 takes the actuation of leg i.
+    let permuted = [q[4], q[5], q[0], q[1], q[2], q[3]];
+    let a = s.solve_fk(&q, &w, None).unwrap();
+    let b = s.solve_fk(&permuted, &w, None).unwrap();
+    let rz = Rotation3::from_axis_angle(&Vector3::z_axis(), 2.0 * std::f64::consts::PI / 3.0);
+    let pa = a.state.pose();
+    let pb = b.state.pose();
+    assert!(
+        (rz * pa.position - pb.position).norm() < 1e-9,
+        "{} vs {}",
+        rz * pa.position,
+        pb.position
+    );
+    // The platform's body frame is symmetric too: leg i+1's coupling point is Rz ᵇp_ci,
+    // so the orientation is conjugated, R_b = Rz R_a Rzᵀ.
+    assert!((rz.matrix() * pa.rotation * rz.matrix().transpose() - pb.rotation).norm() < 1e-9);
+}
+
+#[test]
+fn warm_newton_converges_quadratically() {
+    let mut s = solver("lilge2022.ron");
+    let w = Wrench::default();
+    let home = s.solve_fk(&[0.0; 6], &w, None).unwrap();
+    // A 0.1 mm translation and 0.05 mm tendon step from the home solution.
+    let q = [0.00005, 0.0001, 0.0, 0.0, 0.0, 0.0];
+    let sol = s.solve_fk(&q, &w, Some(&home.state)).unwrap();
+    let h = s.residual_history().to_vec();
+    eprintln!("residual history {h:?}");
+    assert!(
+        sol.report.iterations >= 2 && sol.report.iterations <= 6,
+        "{h:?}"
+    );
+    // Each step at least squares the (relative) residual once it is small.
+    let r0 = h[0];
+    for k in 1..h.len() - 1 {
+        let (e0, e1) = (h[k] / r0, h[k + 1] / r0);
+        if e0 < 1e-2 && e1 > 1e-12 {
+            assert!(e1 <= 10.0 * e0 * e0, "not quadratic at step {k}: {h:?}");
+        }
+    }
+}
+
+#[test]
+fn the_redundant_design_solves_fk() {
+    let mut s = solver("lilge2022_redundant.ron");
+    let sol = s.solve_fk(&[0.0; 9], &Wrench::default(), None).unwrap();
+    let err = independent_check(s.model(), &sol.state, &s.total_wrench(&Wrench::default()));
+    assert!(err < 1e-9, "{err:.2e}");
+    // Square IK is for the 6-DoF design; the redundant one says so.
+    let pose = sol.state.pose();
+    match s.solve_ik(&pose, &Wrench::default(), None) {
+        Err(Error::Input(v)) => assert!(v.to_string().contains("6-DoF design"), "{v}"),
+        other => panic!("expected an input error, got {other:?}"),
+    }
+}
+
+#[test]
+fn bad_input_and_unreachable_poses_are_errors_not_panics() {
+    let mut s = solver("lilge2022.ron");
+    let w = Wrench::default();
+    match s.solve_fk(&[0.0; 5], &w, None) {
+        Err(Error::Input(v)) => assert!(
+            v.to_string().contains("q = 5 values: expected 6 values"),
+            "{v}"
+        ),
+        other => panic!("{other:?}"),
+    }
+    match s.solve_fk(&[0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0], &w, None) {
+        Err(Error::Input(v)) => assert!(v.to_string().contains("q[1]"), "{v}"),
+        other => panic!("{other:?}"),
+    }
+    let far = tdpcr::model::Pose {
+        position: Vector3::new(0.0, 0.0, 0.6),
+        rotation: nalgebra::Matrix3::identity(),
+    };
+    s.settings.max_iterations = 15;
+    match s.solve_ik(&far, &w, None) {
+        Err(Error::Solve(e)) => assert!(e.to_string().contains("did not converge"), "{e}"),
+        Ok(sol) => panic!("an unreachable pose solved: {:?}", sol.state),
+        Err(e) => panic!("{e}"),
+    }
+}
