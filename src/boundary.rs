@@ -19,7 +19,7 @@ use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::model::{Model, Pose};
 use crate::rod::rhs::hat;
-use crate::rod::tendon::{slack, slack_derivative, tension, tension_derivative};
+use crate::rod::tendon::TendonUnknown;
 use crate::rod::{
     LegEnd, LegScratch, LegSensitivities, LegStart, Wrench, integrate_leg,
     integrate_leg_with_sensitivities,
@@ -37,6 +37,8 @@ pub struct BoundaryPoint<'a> {
     pub wrench: &'a Wrench,
     /// Leg unknowns y_u (3 (6 + n_t) values).
     pub y_u: &'a [f64],
+    /// What the tendon entries of y_u are (γ of the paper, or the solver's linear ζ).
+    pub tendon_unknown: TendonUnknown,
 }
 
 /// The Jacobian blocks of b (MODEL.md eq. 17).
@@ -102,6 +104,7 @@ impl BoundaryScratch {
                 0,
                 &vec![0.0; model.n_actuators()],
                 &vec![0.0; 3 * model.n_leg_unknowns()],
+                TendonUnknown::Gamma,
             ); 3],
             trial: DVector::zeros(model.n_residuals()),
             base: DVector::zeros(model.n_residuals()),
@@ -120,18 +123,40 @@ fn leg_row(model: &Model, leg: usize) -> usize {
 }
 
 /// Integration start of leg i at q and its unknowns.
-pub fn leg_start(model: &Model, leg: usize, q: &[f64], y_u: &[f64]) -> LegStart {
+pub fn leg_start(
+    model: &Model,
+    leg: usize,
+    q: &[f64],
+    y_u: &[f64],
+    tendon: TendonUnknown,
+) -> LegStart {
     let nt = model.n_tendons();
     let y = &y_u[leg * model.n_leg_unknowns()..];
     let mut tensions = [0.0; MAX_TENDONS];
     for k in 0..nt {
-        tensions[k] = tension(y[k]);
+        tensions[k] = tendon.tension(y[k]);
     }
     LegStart {
         base: model.base_frame(leg, model.translation(leg, q)),
         u0: Vector3::new(y[nt], y[nt + 1], y[nt + 2]),
         v0: Vector3::new(y[nt + 3], y[nt + 4], y[nt + 5]),
         tensions,
+    }
+}
+
+/// Converts the tendon entries of y_u between two tendon variables, in place.
+pub fn convert_tendon_unknowns(
+    model: &Model,
+    y_u: &mut [f64],
+    from: TendonUnknown,
+    to: TendonUnknown,
+) {
+    let nu = model.n_leg_unknowns();
+    for leg in 0..3 {
+        for k in 0..model.n_tendons() {
+            let x = &mut y_u[leg * nu + k];
+            *x = to.from_gamma(from.to_gamma(*x));
+        }
     }
 }
 
@@ -157,8 +182,9 @@ fn assemble_residual(model: &Model, p: &BoundaryPoint, ends: &[LegEnd; 3], r: &m
         let displacement = model.tendon_displacements(i, p.q);
         for k in 0..nt {
             let g = y[k];
-            r[row + 6 + k] = end.lengths[k] + slack(g)
-                - (1.0 + tension(g) / model.leg.tendon_stiffness) * model.leg.tendon_ends[k]
+            let t = p.tendon_unknown;
+            r[row + 6 + k] = end.lengths[k] + t.slack(g)
+                - (1.0 + t.tension(g) / model.leg.tendon_stiffness) * model.leg.tendon_ends[k]
                 - displacement[k];
         }
     }
@@ -179,7 +205,7 @@ pub fn boundary_residual(
     r: &mut DVector<f64>,
 ) -> Result<(), SolveError> {
     for i in 0..3 {
-        sc.starts[i] = leg_start(model, i, p.q, p.y_u);
+        sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
         integrate_leg(
             &model.leg,
             &sc.starts[i],
@@ -208,7 +234,7 @@ pub fn boundary_derivatives(
     let nu = model.n_leg_unknowns();
     let lc = model.coupling_offset;
     for i in 0..3 {
-        sc.starts[i] = leg_start(model, i, p.q, p.y_u);
+        sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
         integrate_leg_with_sensitivities(
             &model.leg,
             &sc.starts[i],
@@ -252,7 +278,7 @@ pub fn boundary_derivatives(
         for j in 0..nu {
             // (sensitivity direction, scale): γ_k → τ_k direction · dτ/dγ.
             let (dir, scale) = if j < nt {
-                (6 + j, tension_derivative(y[j]))
+                (6 + j, p.tendon_unknown.tension_derivative(y[j]))
             } else {
                 (j - nt, 1.0)
             };
@@ -273,9 +299,9 @@ pub fn boundary_derivatives(
                 jac.b_u[(row + 6 + k, col)] = d.lengths[k] * scale;
             }
             if j < nt {
-                jac.b_u[(row + 6 + j, col)] += slack_derivative(y[j])
+                jac.b_u[(row + 6 + j, col)] += p.tendon_unknown.slack_derivative(y[j])
                     - model.leg.tendon_ends[j] / model.leg.tendon_stiffness
-                        * tension_derivative(y[j]);
+                        * p.tendon_unknown.tension_derivative(y[j]);
             }
         }
     }
@@ -318,6 +344,7 @@ struct Perturbed {
     y_u: [f64; 3 * (6 + MAX_TENDONS)],
     nq: usize,
     ny: usize,
+    tendon_unknown: TendonUnknown,
 }
 
 impl Perturbed {
@@ -333,6 +360,7 @@ impl Perturbed {
             y_u,
             nq: p.q.len(),
             ny: p.y_u.len(),
+            tendon_unknown: p.tendon_unknown,
         }
     }
 
@@ -342,6 +370,7 @@ impl Perturbed {
             q: &self.q[..self.nq],
             wrench: &self.wrench,
             y_u: &self.y_u[..self.ny],
+            tendon_unknown: self.tendon_unknown,
         }
     }
 }
@@ -356,7 +385,7 @@ fn perturbed_residual(
     let point = pert.point();
     let mut ends = sc.ends;
     for i in 0..3 {
-        let start = leg_start(model, i, point.q, point.y_u);
+        let start = leg_start(model, i, point.q, point.y_u, point.tendon_unknown);
         if start != sc.starts[i] {
             integrate_leg(&model.leg, &start, &mut sc.legs[i], &mut ends[i], None)?;
         }

@@ -18,13 +18,18 @@ use serde::{Deserialize, Serialize};
 
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
-    boundary_derivatives_fd, boundary_residual,
+    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns,
 };
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, Violations};
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
 use crate::rod::Wrench;
+use crate::rod::tendon::TendonUnknown;
+
+/// The tendon variable Newton iterates on (states report γ): the piecewise-linear ζ
+/// converges in a few steps where γ stalls near the taut/slack boundary.
+const SOLVER_TENDON_UNKNOWN: TendonUnknown = TendonUnknown::Linear;
 use crate::tdcr::{TendonControl, cold_guess_at};
 
 /// How the Newton Jacobian is obtained.
@@ -442,6 +447,13 @@ impl Solver {
     ) -> Result<(RobotState, NewtonReport), SolveError> {
         let model = scaled.unwrap_or(&self.model);
         let n_u = 3 * model.n_leg_unknowns();
+        let mut guess = guess;
+        convert_tendon_unknowns(
+            model,
+            &mut guess.y_u,
+            TendonUnknown::Gamma,
+            SOLVER_TENDON_UNKNOWN,
+        );
         let (mut x, n_head) = match problem {
             Problem::Forward { .. } => {
                 let mut x = DVector::zeros(6 + n_u);
@@ -467,7 +479,8 @@ impl Solver {
             wrench,
         };
         let report = newton::solve(&mut system, &mut x, settings, &mut self.newton)?;
-        let y_u = x.rows(n_head, n_u).iter().copied().collect();
+        let mut y_u: Vec<f64> = x.rows(n_head, n_u).iter().copied().collect();
+        convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
         let state = match problem {
             Problem::Forward { q } => RobotState {
                 position: [x[0], x[1], x[2]],
@@ -508,6 +521,7 @@ impl Solver {
             q: &state.q,
             wrench: &wrench,
             y_u: &state.y_u,
+            tendon_unknown: TendonUnknown::Gamma,
         };
         let mut r = DVector::zeros(self.model.n_residuals());
         boundary_derivatives(
@@ -639,6 +653,7 @@ impl ShootingSystem<'_> {
             q,
             wrench: self.wrench,
             y_u: &x.as_slice()[head..],
+            tendon_unknown: SOLVER_TENDON_UNKNOWN,
         };
         let Some(jac) = jac else {
             return boundary_residual(self.model, self.boundary, &p, r);

@@ -3,10 +3,12 @@
 //! 4e-3·max(1, |x|) in γ and u(0), 1e-7 in v(0)), and the product's finite-difference
 //! baseline against the exact blocks.
 //!
-//! Error measure: the blocks are cut into sub-blocks of one unit (rows: platform force,
-//! platform moment, coupling position, joint moment, tendon lengths; columns: position,
-//! rotation, bending actuation, translation actuation, force, moment, γ, u(0), v(0)).
-//! The relative error of a sub-block is max|exact − FD| / max|FD| over its entries.
+//! Error measure: each block's rows are grouped by kind (platform force, platform moment,
+//! coupling position, joint moment, tendon lengths), and each column is scaled by a
+//! characteristic size of its unknown (position 1 cm, rotation 0.1 rad, bending
+//! actuation 1 mm, translation 1 cm, force 1 N, moment 0.1 N·m, γ or ζ 1, u(0) 1/L,
+//! v(0) 1e-4), so one row kind shares a unit. The relative error of a row kind is
+//! max|exact − FD| / max|FD| over its rows and all (scaled) columns, as in the leg tests.
 #![allow(clippy::needless_range_loop)]
 
 mod common;
@@ -20,6 +22,7 @@ use tdpcr::boundary::{
 };
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
+use tdpcr::rod::tendon::TendonUnknown;
 
 /// Row kind of row i: 0 force, 1 moment, 2 coupling, 3 joint moment, 4 lengths.
 fn row_kind(model: &Model, i: usize) -> usize {
@@ -36,45 +39,44 @@ fn row_kind(model: &Model, i: usize) -> usize {
     }
 }
 
+/// Worst relative error over row kinds: for each kind, max|exact − FD|·c_j / max|FD|·c_j
+/// over its rows and all columns, with c_j the characteristic size of column j's unknown.
 fn sub_block_error(
     a: &DMatrix<f64>,
     fd: &DMatrix<f64>,
     rows: &[usize],
-    col_kind: &[usize],
+    col_scale: &[f64],
 ) -> (f64, String) {
     let mut worst = (0.0, String::new());
     let n_rk = rows.iter().max().unwrap() + 1;
-    let n_ck = col_kind.iter().max().unwrap() + 1;
     for rk in 0..n_rk {
-        for ck in 0..n_ck {
-            let (mut num, mut den) = (0.0f64, 0.0f64);
-            let mut at = (0, 0);
-            for i in (0..a.nrows()).filter(|&i| rows[i] == rk) {
-                for j in (0..a.ncols()).filter(|&j| col_kind[j] == ck) {
-                    let e = (a[(i, j)] - fd[(i, j)]).abs();
-                    if e > num {
-                        num = e;
-                        at = (i, j);
-                    }
-                    den = den.max(fd[(i, j)].abs());
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        let mut at = (0, 0);
+        for i in (0..a.nrows()).filter(|&i| rows[i] == rk) {
+            for j in 0..a.ncols() {
+                let e = (a[(i, j)] - fd[(i, j)]).abs() * col_scale[j];
+                if e > num {
+                    num = e;
+                    at = (i, j);
                 }
+                den = den.max(fd[(i, j)].abs() * col_scale[j]);
             }
-            let rel = if den > 0.0 {
-                num / den
-            } else if num > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            };
-            if rel > worst.0 {
-                worst = (
-                    rel,
-                    format!(
-                        "rows {rk}, columns {ck}, entry {at:?}: exact {:e} vs fd {:e}",
-                        a[at], fd[at]
-                    ),
-                );
-            }
+        }
+        let rel = if den > 0.0 {
+            num / den
+        } else if num > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        if rel > worst.0 {
+            worst = (
+                rel,
+                format!(
+                    "rows of kind {rk}, entry {at:?}: exact {:e} vs fd {:e}",
+                    a[at], fd[at]
+                ),
+            );
         }
     }
     worst
@@ -138,8 +140,8 @@ fn random_point(model: &Model, rng: &mut Rng) -> (Pose, Vec<f64>, Wrench, Vec<f6
     (pose, q, wrench, y_u)
 }
 
-/// (name, exact, reference, column kinds) of one Jacobian block.
-type BlockPair<'a> = (&'a str, &'a DMatrix<f64>, &'a DMatrix<f64>, Vec<usize>);
+/// (name, exact, reference, column scales) of one Jacobian block.
+type BlockPair<'a> = (&'a str, &'a DMatrix<f64>, &'a DMatrix<f64>, Vec<f64>);
 
 /// Which input a column perturbs.
 #[derive(Clone, Copy)]
@@ -158,6 +160,7 @@ fn reference_blocks(
     q: &[f64],
     wrench: &Wrench,
     y_u: &[f64],
+    tendon_unknown: TendonUnknown,
 ) -> BoundaryJacobians {
     let mut sc = BoundaryScratch::new(model);
     let mut out = BoundaryJacobians::new(model);
@@ -186,6 +189,7 @@ fn reference_blocks(
                     q: &q,
                     wrench: &wrench,
                     y_u: &y_u,
+                    tendon_unknown,
                 };
                 boundary_residual(model, &mut sc, &p, &mut r).unwrap();
                 r
@@ -230,13 +234,20 @@ fn exact_blocks_match_central_differences_for_both_designs() {
         let mut exact = BoundaryJacobians::new(&model);
         let mut baseline = BoundaryJacobians::new(&model);
         let (mut r1, mut r2) = (DVector::zeros(m), DVector::zeros(m));
-        for _ in 0..4 {
+        for trial in 0..6 {
+            // The paper's γ, and the solver's piecewise-linear variable (off its kink).
+            let tendon_unknown = if trial % 2 == 0 {
+                TendonUnknown::Gamma
+            } else {
+                TendonUnknown::Linear
+            };
             let (pose, q, wrench, y_u) = random_point(&model, &mut rng);
             let p = BoundaryPoint {
                 pose: &pose,
                 q: &q,
                 wrench: &wrench,
                 y_u: &y_u,
+                tendon_unknown,
             };
             boundary_derivatives(&model, &mut sc, &p, &mut r1, &mut exact).unwrap();
             boundary_derivatives_fd(
@@ -252,20 +263,38 @@ fn exact_blocks_match_central_differences_for_both_designs() {
                 r1, r2,
                 "the residual does not depend on the Jacobian method"
             );
-            let fd = reference_blocks(&model, &pose, &q, &wrench, &y_u);
+            let fd = reference_blocks(&model, &pose, &q, &wrench, &y_u, tendon_unknown);
+            let nu = model.n_leg_unknowns();
+            let nt = model.n_tendons();
             let nu = model.n_leg_unknowns();
             let nt = model.n_tendons();
             let kinds: [BlockPair; 4] = [
-                ("B_x", &exact.b_x, &fd.b_x, (0..6).map(|j| j / 3).collect()),
+                (
+                    "B_x",
+                    &exact.b_x,
+                    &fd.b_x,
+                    (0..6).map(|j| if j < 3 { 0.01 } else { 0.1 }).collect(),
+                ),
                 (
                     "B_q",
                     &exact.b_q,
                     &fd.b_q,
                     (0..model.n_actuators())
-                        .map(|j| usize::from(j % (model.pairs + 1) == model.pairs))
+                        .map(|j| {
+                            if j % (model.pairs + 1) == model.pairs {
+                                0.01
+                            } else {
+                                0.001
+                            }
+                        })
                         .collect(),
                 ),
-                ("B_w", &exact.b_w, &fd.b_w, (0..6).map(|j| j / 3).collect()),
+                (
+                    "B_w",
+                    &exact.b_w,
+                    &fd.b_w,
+                    (0..6).map(|j| if j < 3 { 1.0 } else { 0.1 }).collect(),
+                ),
                 (
                     "B_u",
                     &exact.b_u,
@@ -274,11 +303,11 @@ fn exact_blocks_match_central_differences_for_both_designs() {
                         .map(|j| {
                             let k = j % nu;
                             if k < nt {
-                                0
+                                1.0
                             } else if k < nt + 3 {
-                                1
+                                1.0 / 0.145
                             } else {
-                                2
+                                1e-4
                             }
                         })
                         .collect(),
@@ -301,6 +330,35 @@ fn exact_blocks_match_central_differences_for_both_designs() {
                 );
                 baseline_worst = baseline_worst.max(err);
             }
+            // Negative controls: the measure sees a flipped column and a 1e-4 error in the
+            // largest entry of the joint-moment rows of B_u.
+            let b_u_scales: Vec<f64> = (0..3 * nu)
+                .map(|j| {
+                    let k = j % nu;
+                    if k < nt {
+                        1.0
+                    } else if k < nt + 3 {
+                        1.0 / 0.145
+                    } else {
+                        1e-4
+                    }
+                })
+                .collect();
+            let mut flipped = exact.b_u.clone();
+            flipped.column_mut(nt + 1).neg_mut();
+            assert!(sub_block_error(&flipped, &fd.b_u, &rows, &b_u_scales).0 > 1e-3);
+            let (i, j) = (0..m)
+                .filter(|&i| rows[i] == 3)
+                .flat_map(|i| (0..3 * nu).map(move |j| (i, j)))
+                .max_by(|a, b| {
+                    (fd.b_u[*a] * b_u_scales[a.1])
+                        .abs()
+                        .total_cmp(&(fd.b_u[*b] * b_u_scales[b.1]).abs())
+                })
+                .unwrap();
+            let mut nudged = exact.b_u.clone();
+            nudged[(i, j)] *= 1.0 + 1e-4;
+            assert!(sub_block_error(&nudged, &fd.b_u, &rows, &b_u_scales).0 > 1e-6);
         }
     }
     eprintln!("worst relative error of the boundary blocks: {overall:.2e}");

@@ -156,14 +156,18 @@ fn warm_newton_converges_quadratically() {
         sol.report.iterations >= 2 && sol.report.iterations <= 6,
         "{h:?}"
     );
-    // Each step at least squares the (relative) residual once it is small.
+    // Once the residual is small, each step at least squares it (relative to the start),
+    // until the round-off floor (~1e-11 in these units) is reached.
     let r0 = h[0];
-    for k in 1..h.len() - 1 {
+    let mut checked = 0;
+    for k in 0..h.len() - 1 {
         let (e0, e1) = (h[k] / r0, h[k + 1] / r0);
-        if e0 < 1e-2 && e1 > 1e-12 {
+        if e0 < 0.5 && h[k + 1] > 1e-10 {
             assert!(e1 <= 10.0 * e0 * e0, "not quadratic at step {k}: {h:?}");
+            checked += 1;
         }
     }
+    assert!(checked >= 1, "no step to check in {h:?}");
 }
 
 #[test]
