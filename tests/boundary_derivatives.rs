@@ -266,8 +266,6 @@ fn exact_blocks_match_central_differences_for_both_designs() {
             let fd = reference_blocks(&model, &pose, &q, &wrench, &y_u, tendon_unknown);
             let nu = model.n_leg_unknowns();
             let nt = model.n_tendons();
-            let nu = model.n_leg_unknowns();
-            let nt = model.n_tendons();
             let kinds: [BlockPair; 4] = [
                 (
                     "B_x",
