@@ -280,8 +280,8 @@ impl Solver {
         home_guess(&self.model, pose, q, wrench)
     }
 
-    /// Cold FK: Newton from the straight guess; if that fails, continuation from the
-    /// unloaded straight home configuration.
+    /// Cold FK: Newton from the straight guess; if that fails, q is ramped from the solved
+    /// q = 0 configuration; last, continuation from the unloaded straight home.
     fn cold_fk(
         &mut self,
         q: &[f64],
@@ -293,11 +293,77 @@ impl Solver {
         if direct.is_ok() {
             return direct;
         }
+        // Ramp q from the solved q = 0 configuration under the same loads.
+        let zero = vec![0.0; q.len()];
+        let home = if q.iter().all(|&x| x == 0.0) {
+            None
+        } else {
+            let pose = straight_leg_pose(&self.model, &zero);
+            let guess = self.home_guess(&pose, &zero, wrench);
+            self.run(Problem::Forward { q: &zero }, wrench, guess).ok()
+        };
+        if let Some((home, r)) = home {
+            if let Ok((state, mut report)) = self.ramp_actuation(home, q, wrench) {
+                report.iterations += r.iterations;
+                report.residual_evaluations += r.residual_evaluations;
+                return Ok((state, report));
+            }
+        }
         let q_final = q.to_vec();
         self.continuation(wrench, &|lambda: f64| {
             Target::Forward(q_final.iter().map(|x| x * lambda).collect())
         })
         .or(direct)
+    }
+
+    /// FK along q(λ) = q_start + λ (q − q_start) from the solved `start`, warm-starting
+    /// each step; the step is halved when Newton needs more than a few iterations.
+    fn ramp_actuation(
+        &mut self,
+        start: RobotState,
+        q: &[f64],
+        wrench: &Wrench,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let settings = NewtonSettings {
+            max_iterations: CONTINUATION_MAX_ITERATIONS.min(self.settings.max_iterations),
+            ..self.settings
+        };
+        let q0 = start.q.clone();
+        let mut state = start;
+        let mut total = NewtonReport {
+            iterations: 0,
+            residual_evaluations: 0,
+            residual_norm: f64::NAN,
+        };
+        let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
+        while lambda < 1.0 {
+            let next = (lambda + step).min(1.0);
+            let qk: Vec<f64> = q0.iter().zip(q).map(|(a, b)| a + (b - a) * next).collect();
+            let mut guess = state.clone();
+            guess.q = qk.clone();
+            match self.run_with(None, &settings, Problem::Forward { q: &qk }, wrench, guess) {
+                Ok((s, r)) => {
+                    total.iterations += r.iterations;
+                    total.residual_evaluations += r.residual_evaluations;
+                    total.residual_norm = r.residual_norm;
+                    state = s;
+                    lambda = next;
+                    if r.iterations <= 4 {
+                        step *= 2.0;
+                    }
+                }
+                Err(e) => {
+                    if let SolveError::NotConverged { iterations, .. } = e {
+                        total.iterations += iterations;
+                    }
+                    step /= 2.0;
+                    if step < 1.0 / 256.0 {
+                        return Err(e);
+                    }
+                }
+            }
+        }
+        Ok((state, total))
     }
 
     /// Cold IK: Newton from the straight guess; if that fails, continuation from the

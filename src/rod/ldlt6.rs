@@ -1,98 +1,85 @@
-//! LDLᵀ factorization of the symmetric positive definite 6×6 strain matrix of eq. (5),
-//! on plain arrays so the fixed-size loops unroll (the rod's innermost kernel).
+//! The symmetric positive definite 6×6 strain system of eq. (5), solved by its 3×3 block
+//! structure: M = [A Bᵀ; B C] with A the shear/extension block, C the bending/torsion
+//! block. A⁻¹ and the Schur complement S = C − B A⁻¹ Bᵀ are inverted in closed form
+//! (fixed-size code, no loops: this is the rod's innermost kernel).
 
-/// A factored symmetric 6×6 matrix: M = L D Lᵀ, L unit lower triangular.
+use nalgebra::{Matrix3, Vector3};
+
+/// A factored 6×6 block matrix [A Bᵀ; B C].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ldlt6 {
-    /// Strictly lower part of L (row-major; upper part unused).
-    l: [[f64; 6]; 6],
-    /// 1 / D.
-    inv_d: [f64; 6],
+    a_inv: Matrix3<f64>,
+    /// X = B A⁻¹.
+    x: Matrix3<f64>,
+    b: Matrix3<f64>,
+    s_inv: Matrix3<f64>,
 }
 
 impl Ldlt6 {
     /// The identity (a placeholder before the first factorization).
     pub fn identity() -> Self {
         Self {
-            l: [[0.0; 6]; 6],
-            inv_d: [1.0; 6],
+            a_inv: Matrix3::identity(),
+            x: Matrix3::zeros(),
+            b: Matrix3::zeros(),
+            s_inv: Matrix3::identity(),
         }
     }
 
-    /// Factors the matrix whose lower triangle is in `m` (the upper part is not read).
-    /// `None` if a pivot is not positive and finite (the matrix is not positive definite).
+    /// Factors [A Bᵀ; B C] (A, C symmetric). `None` unless A and the Schur complement are
+    /// invertible with finite inverses (they are positive definite for τ ≥ 0).
     #[inline]
-    pub fn factor(m: &[[f64; 6]; 6]) -> Option<Self> {
-        let mut l = [[0.0; 6]; 6];
-        let mut d = [0.0; 6];
-        let mut inv_d = [0.0; 6];
-        for j in 0..6 {
-            let mut dj = m[j][j];
-            for k in 0..j {
-                dj -= l[j][k] * l[j][k] * d[k];
-            }
-            if !(dj > 0.0 && dj.is_finite()) {
-                return None;
-            }
-            d[j] = dj;
-            inv_d[j] = 1.0 / dj;
-            for i in j + 1..6 {
-                let mut s = m[i][j];
-                for k in 0..j {
-                    s -= l[i][k] * l[j][k] * d[k];
-                }
-                l[i][j] = s * inv_d[j];
-            }
+    pub fn factor_blocks(a: &Matrix3<f64>, b: &Matrix3<f64>, c: &Matrix3<f64>) -> Option<Self> {
+        let a_inv = a.try_inverse()?;
+        let x = b * a_inv;
+        let s = c - x * b.transpose();
+        let s_inv = s.try_inverse()?;
+        if !(a_inv.iter().chain(s_inv.iter()).all(|v| v.is_finite()))
+            || s[(0, 0)] <= 0.0
+            || a[(0, 0)] <= 0.0
+        {
+            return None;
         }
-        Some(Self { l, inv_d })
+        Some(Self {
+            a_inv,
+            x,
+            b: *b,
+            s_inv,
+        })
     }
 
-    /// Solves M x = b.
+    /// Solves M [x1; x2] = [b1; b2].
     #[inline]
-    pub fn solve(&self, mut b: [f64; 6]) -> [f64; 6] {
-        for i in 1..6 {
-            for k in 0..i {
-                b[i] -= self.l[i][k] * b[k];
-            }
-        }
-        for i in 0..6 {
-            b[i] *= self.inv_d[i];
-        }
-        for i in (0..5).rev() {
-            for k in i + 1..6 {
-                b[i] -= self.l[k][i] * b[k];
-            }
-        }
-        b
+    pub fn solve_blocks(
+        &self,
+        b1: &Vector3<f64>,
+        b2: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let x2 = self.s_inv * (b2 - self.x * b1);
+        let x1 = self.a_inv * (b1 - self.b.tr_mul(&x2));
+        (x1, x2)
     }
-}
 
-impl Ldlt6 {
+    /// Solves M x = b for a 6-vector.
+    #[inline]
+    pub fn solve(&self, b: [f64; 6]) -> [f64; 6] {
+        let (x1, x2) = self.solve_blocks(
+            &Vector3::new(b[0], b[1], b[2]),
+            &Vector3::new(b[3], b[4], b[5]),
+        );
+        [x1.x, x1.y, x1.z, x2.x, x2.y, x2.z]
+    }
+
     /// Solves M x = b for `n` right-hand sides stored by component (`b[row][rhs]`).
     #[inline]
     pub fn solve_lanes<const N: usize>(&self, b: &mut [[f64; N]; 6], n: usize) {
-        for i in 1..6 {
-            for k in 0..i {
-                let l = self.l[i][k];
-                let (head, tail) = b.split_at_mut(i);
-                for j in 0..n {
-                    tail[0][j] -= l * head[k][j];
-                }
-            }
-        }
-        for i in 0..6 {
-            let d = self.inv_d[i];
-            for x in b[i][..n].iter_mut() {
-                *x *= d;
-            }
-        }
-        for i in (0..5).rev() {
-            for k in i + 1..6 {
-                let l = self.l[k][i];
-                let (head, tail) = b.split_at_mut(k);
-                for j in 0..n {
-                    head[i][j] -= l * tail[0][j];
-                }
+        for j in 0..n {
+            let b1 = Vector3::new(b[0][j], b[1][j], b[2][j]);
+            let b2 = Vector3::new(b[3][j], b[4][j], b[5][j]);
+            let (x1, x2) = self.solve_blocks(&b1, &b2);
+            for c in 0..3 {
+                b[c][j] = x1[c];
+                b[3 + c][j] = x2[c];
             }
         }
     }
@@ -103,19 +90,25 @@ mod tests {
     use super::*;
     use nalgebra::{Matrix6, Vector6};
 
+    fn spd() -> Matrix6<f64> {
+        let a = Matrix6::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0);
+        a * a.transpose() + Matrix6::identity() * 0.5
+    }
+
+    fn factor(m: &Matrix6<f64>) -> Option<Ldlt6> {
+        Ldlt6::factor_blocks(
+            &m.fixed_view::<3, 3>(0, 0).into_owned(),
+            &m.fixed_view::<3, 3>(3, 0).into_owned(),
+            &m.fixed_view::<3, 3>(3, 3).into_owned(),
+        )
+    }
+
     #[test]
     fn solves_a_symmetric_positive_definite_system() {
-        let a = Matrix6::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 2.0);
-        let spd = a * a.transpose() + Matrix6::identity() * 0.5;
-        let mut m = [[0.0; 6]; 6];
-        for i in 0..6 {
-            for j in 0..6 {
-                m[i][j] = spd[(i, j)];
-            }
-        }
+        let m = spd();
         let x = Vector6::new(1.0, -2.0, 0.5, 3.0, 0.0, -1.0);
-        let b = spd * x;
-        let sol = Ldlt6::factor(&m)
+        let b = m * x;
+        let sol = factor(&m)
             .unwrap()
             .solve([b[0], b[1], b[2], b[3], b[4], b[5]]);
         for i in 0..6 {
@@ -125,15 +118,7 @@ mod tests {
 
     #[test]
     fn lane_solve_matches_single_solves() {
-        let a = Matrix6::from_fn(|i, j| ((i * 5 + j * 2) % 7) as f64 - 3.0);
-        let spd = a * a.transpose() + Matrix6::identity();
-        let mut m = [[0.0; 6]; 6];
-        for i in 0..6 {
-            for j in 0..6 {
-                m[i][j] = spd[(i, j)];
-            }
-        }
-        let f = Ldlt6::factor(&m).unwrap();
+        let f = factor(&spd()).unwrap();
         let mut lanes = [[0.0; 3]; 6];
         for i in 0..6 {
             for j in 0..3 {
@@ -158,11 +143,9 @@ mod tests {
     }
 
     #[test]
-    fn rejects_an_indefinite_matrix() {
-        let mut m = [[0.0; 6]; 6];
-        for (i, row) in m.iter_mut().enumerate() {
-            row[i] = if i == 3 { -1.0 } else { 1.0 };
-        }
-        assert!(Ldlt6::factor(&m).is_none());
+    fn rejects_a_singular_matrix() {
+        let mut m = Matrix6::identity();
+        m[(4, 4)] = 0.0;
+        assert!(factor(&m).is_none());
     }
 }

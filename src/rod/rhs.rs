@@ -165,12 +165,10 @@ impl Stage {
         let (v, u) = (y.v, y.u);
         let n_body = model.k_se.component_mul(&(v - Vector3::z()));
         let m_body = model.k_bt.component_mul(&u);
-        // Lower triangle of M = K + Σ_k P_kᵀ A_k P_k (blocks A, r̂A, r̂ A r̂ᵀ).
-        let mut mat = [[0.0; 6]; 6];
-        for i in 0..3 {
-            mat[i][i] = model.k_se[i];
-            mat[3 + i][3 + i] = model.k_bt[i];
-        }
+        // M = K + Σ_k P_kᵀ A_k P_k in 3×3 blocks [A Bᵀ; B C]: A_k, r̂A_k, r̂ A_k r̂ᵀ.
+        let mut blk_a = Matrix3::from_diagonal(&model.k_se);
+        let mut blk_b = Matrix3::zeros();
+        let mut blk_c = Matrix3::from_diagonal(&model.k_bt);
         let mut rhs_v = -u.cross(&n_body) - y.r.tr_mul(&model.weight_per_length);
         let mut rhs_u = -u.cross(&m_body) - v.cross(&n_body);
         for k in 0..model.n_tendons {
@@ -184,18 +182,9 @@ impl Stage {
             let c = tau[k] / len;
             // A = c (I − t tᵀ); r̂A = c (r̂ − s tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − s sᵀ), s = r × t.
             let sv = r_k.cross(&t);
-            let rh = &model.tendon_hats[k];
-            let rr = &model.tendon_hat_squares[k];
-            for i in 0..3 {
-                for j in 0..=i {
-                    let delta = if i == j { 1.0 } else { 0.0 };
-                    mat[i][j] += c * (delta - t[i] * t[j]);
-                    mat[3 + i][3 + j] += c * (rr[(i, j)] - sv[i] * sv[j]);
-                }
-                for j in 0..3 {
-                    mat[3 + i][j] += c * (rh[(i, j)] - sv[i] * t[j]);
-                }
-            }
+            blk_a += (Matrix3::identity() - t * t.transpose()) * c;
+            blk_b += (model.tendon_hats[k] - sv * t.transpose()) * c;
+            blk_c += (model.tendon_hat_squares[k] - sv * sv.transpose()) * c;
             let z = u.cross(&w);
             let a_z = (z - t * t.dot(&z)) * c;
             rhs_v -= a_z;
@@ -211,12 +200,10 @@ impl Stage {
                 q: Vector3::zeros(),
             };
         }
-        let factor = Ldlt6::factor(&mat).ok_or(SolveError::NonFinite {
+        let factor = Ldlt6::factor_blocks(&blk_a, &blk_b, &blk_c).ok_or(SolveError::NonFinite {
             stage: "rod strain system (eq. 5)",
         })?;
-        let x = factor.solve([rhs_v.x, rhs_v.y, rhs_v.z, rhs_u.x, rhs_u.y, rhs_u.z]);
-        let dv = Vector3::new(x[0], x[1], x[2]);
-        let du = Vector3::new(x[3], x[4], x[5]);
+        let (dv, du) = factor.solve_blocks(&rhs_v, &rhs_u);
         if !(dv.iter().chain(du.iter()).all(|e| e.is_finite())) {
             return Err(SolveError::NonFinite {
                 stage: "rod strain derivatives (eq. 5)",

@@ -74,8 +74,8 @@ impl Tangents {
     pub fn axpy(&mut self, a: f64, k: &Self, nt: usize) {
         let n = self.n;
         self.zip_with(k, nt, |d, s| {
-            for j in 0..n {
-                d[j] += a * s[j];
+            for (x, y) in d[..n].iter_mut().zip(&s[..n]) {
+                *x += a * y;
             }
         });
     }
@@ -85,8 +85,18 @@ impl Tangents {
     pub fn set_axpy(&mut self, y: &Self, a: f64, k: &Self, nt: usize) {
         let n = y.n;
         self.n = n;
-        self.zip_with(y, nt, |d, s| d[..n].copy_from_slice(&s[..n]));
-        self.axpy(a, k, nt);
+        let pairs = |d: &mut [Lanes], s: &[Lanes], t: &[Lanes]| {
+            for ((d, s), t) in d.iter_mut().zip(s).zip(t) {
+                for ((x, y), z) in d[..n].iter_mut().zip(&s[..n]).zip(&t[..n]) {
+                    *x = y + a * z;
+                }
+            }
+        };
+        pairs(&mut self.p, &y.p, &k.p);
+        pairs(&mut self.r, &y.r, &k.r);
+        pairs(&mut self.v, &y.v, &k.v);
+        pairs(&mut self.u, &y.u, &k.u);
+        pairs(&mut self.s[..nt], &y.s[..nt], &k.s[..nt]);
     }
 
     /// self = k (the first `nt` tendon lengths).

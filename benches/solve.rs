@@ -1,0 +1,168 @@
+//! Parallel robot: boundary residual, exact vs finite-difference Jacobian, the dense
+//! Newton solve, cold FK over 30 seeded actuation vectors, and warm IK steps.
+
+use std::hint::black_box;
+
+use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
+use nalgebra::{DMatrix, DVector, Vector3};
+use tdpcr::Tdpcr;
+use tdpcr::boundary::{
+    BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    boundary_derivatives_fd, boundary_residual,
+};
+use tdpcr::kinetostatics::{RobotState, Solver};
+use tdpcr::linalg::DenseLu;
+use tdpcr::model::{Model, Pose};
+use tdpcr::rod::Wrench;
+use tdpcr::rod::tendon::TendonUnknown;
+
+fn design(file: &str) -> Tdpcr {
+    Tdpcr::from_ron_file(format!("{}/designs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+/// A solved configuration of the reference design (q bent and translated).
+fn solved_state(solver: &mut Solver, q: &[f64]) -> RobotState {
+    solver.solve_fk(q, &Wrench::default(), None).unwrap().state
+}
+
+/// The 30 seeded actuation vectors of the cold-FK benchmark: bending uniform in ±10 mm,
+/// translations a common offset uniform in ±80 mm plus per-leg offsets in ±20 mm.
+pub fn cold_fk_set() -> Vec<Vec<f64>> {
+    let mut seed: u64 = 42;
+    let mut rnd = || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64) / ((1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    (0..30)
+        .map(|_| {
+            let common = rnd() * 0.08;
+            (0..6)
+                .map(|k| {
+                    if k % 2 == 0 {
+                        rnd() * 0.01
+                    } else {
+                        common + rnd() * 0.02
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn bench_jacobians(c: &mut Criterion) {
+    let mut group = c.benchmark_group("boundary");
+    for (name, file, q) in [
+        (
+            "6dof",
+            "lilge2022.ron",
+            vec![0.004, 0.02, -0.003, -0.01, 0.002, 0.03],
+        ),
+        ("9dof", "lilge2022_redundant.ron", vec![0.0; 9]),
+    ] {
+        let d = design(file);
+        let model = Model::new(&d);
+        let mut solver = Solver::new(&d);
+        let state = solved_state(&mut solver, &q);
+        let pose: Pose = state.pose();
+        let wrench = solver.total_wrench(&Wrench::default());
+        let p = BoundaryPoint {
+            pose: &pose,
+            q: &state.q,
+            wrench: &wrench,
+            y_u: &state.y_u,
+            tendon_unknown: TendonUnknown::Gamma,
+        };
+        let mut sc = BoundaryScratch::new(&model);
+        let mut jac = BoundaryJacobians::new(&model);
+        let mut r = DVector::zeros(model.n_residuals());
+        group.bench_function(format!("{name}/residual"), |b| {
+            b.iter(|| boundary_residual(&model, &mut sc, black_box(&p), &mut r).unwrap())
+        });
+        group.bench_function(format!("{name}/jacobian_exact"), |b| {
+            b.iter(|| {
+                boundary_derivatives(&model, &mut sc, black_box(&p), &mut r, &mut jac).unwrap()
+            })
+        });
+        for (label, m) in [
+            ("fd_forward", FiniteDifference::Forward),
+            ("fd_central", FiniteDifference::Central),
+        ] {
+            group.bench_function(format!("{name}/jacobian_{label}"), |b| {
+                b.iter(|| {
+                    boundary_derivatives_fd(&model, &mut sc, black_box(&p), m, &mut r, &mut jac)
+                        .unwrap()
+                })
+            });
+        }
+        // The dense Newton solve [B_x B_u] δ = −b.
+        boundary_derivatives(&model, &mut sc, &p, &mut r, &mut jac).unwrap();
+        let n = model.n_residuals();
+        let mut a = DMatrix::zeros(n, n);
+        a.columns_mut(0, 6).copy_from(&jac.b_x);
+        a.columns_mut(6, n - 6).copy_from(&jac.b_u);
+        let mut lu = DenseLu::new(n);
+        let mut x = r.clone();
+        group.bench_function(format!("{name}/newton_solve_own_lu"), |b| {
+            b.iter(|| {
+                lu.factor(black_box(&a)).unwrap();
+                x.copy_from(&r);
+                lu.solve_in_place(&mut x);
+            })
+        });
+        group.bench_function(format!("{name}/newton_solve_nalgebra_lu"), |b| {
+            b.iter(|| black_box(&a).clone().lu().solve(&r).unwrap())
+        });
+        group.bench_function(format!("{name}/svd_bx_bu_nalgebra"), |b| {
+            b.iter(|| black_box(&a).clone().singular_values())
+        });
+    }
+    group.finish();
+}
+
+fn bench_solves(c: &mut Criterion) {
+    let mut group = c.benchmark_group("solve");
+    group.sample_size(10);
+    let d = design("lilge2022.ron");
+    let mut solver = Solver::new(&d);
+    let set = cold_fk_set();
+    group.bench_function("fk_cold_30_vectors", |b| {
+        b.iter(|| {
+            let mut converged = 0;
+            for q in &set {
+                converged += usize::from(
+                    solver
+                        .solve_fk(black_box(q), &Wrench::default(), None)
+                        .is_ok(),
+                );
+            }
+            converged
+        })
+    });
+    // A warm IK step of 1 mm from a solved pose.
+    let home = solved_state(&mut solver, &[0.0; 6]);
+    let target = Pose {
+        position: home.pose().position + Vector3::new(0.001, 0.0, 0.0),
+        rotation: home.pose().rotation,
+    };
+    group.bench_function("ik_warm_step_1mm", |b| {
+        b.iter_batched(
+            || home.clone(),
+            |start| {
+                solver
+                    .solve_ik(black_box(&target), &Wrench::default(), Some(&start))
+                    .unwrap()
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).measurement_time(std::time::Duration::from_secs(3));
+    targets = bench_jacobians, bench_solves
+}
+criterion_main!(benches);
