@@ -15,6 +15,7 @@ use tdpcr::linalg::DenseLu;
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
 use tdpcr::rod::tendon::TendonUnknown;
+use tdpcr::sampling::seeded_actuations;
 
 fn design(file: &str) -> Tdpcr {
     Tdpcr::from_ron_file(format!("{}/designs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap()
@@ -23,32 +24,6 @@ fn design(file: &str) -> Tdpcr {
 /// A solved configuration of the reference design (q bent and translated).
 fn solved_state(solver: &mut Solver, q: &[f64]) -> RobotState {
     solver.solve_fk(q, &Wrench::default(), None).unwrap().state
-}
-
-/// The 30 seeded actuation vectors of the cold-FK benchmark: bending uniform in ±10 mm,
-/// translations a common offset uniform in ±80 mm plus per-leg offsets in ±20 mm.
-pub fn cold_fk_set() -> Vec<Vec<f64>> {
-    let mut seed: u64 = 42;
-    let mut rnd = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((seed >> 11) as f64) / ((1u64 << 53) as f64) * 2.0 - 1.0
-    };
-    (0..30)
-        .map(|_| {
-            let common = rnd() * 0.08;
-            (0..6)
-                .map(|k| {
-                    if k % 2 == 0 {
-                        rnd() * 0.01
-                    } else {
-                        common + rnd() * 0.02
-                    }
-                })
-                .collect()
-        })
-        .collect()
 }
 
 fn bench_jacobians(c: &mut Criterion) {
@@ -126,7 +101,7 @@ fn bench_solves(c: &mut Criterion) {
     group.sample_size(10);
     let d = design("lilge2022.ron");
     let mut solver = Solver::new(&d);
-    let set = cold_fk_set();
+    let set = seeded_actuations(solver.model(), 30, 42);
     group.bench_function("fk_cold_30_vectors", |b| {
         b.iter(|| {
             let mut converged = 0;

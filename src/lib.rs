@@ -32,6 +32,7 @@ pub mod linalg;
 pub mod model;
 pub mod newton;
 pub mod rod;
+pub mod sampling;
 pub mod tdcr;
 
 pub use design::{Leg, Tdcr, Tdpcr};
