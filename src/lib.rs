@@ -27,6 +27,7 @@
 pub mod boundary;
 pub mod design;
 pub mod error;
+pub mod jacobian_check;
 pub mod kinetostatics;
 pub mod linalg;
 pub mod model;
@@ -34,6 +35,7 @@ pub mod newton;
 pub mod rod;
 pub mod sampling;
 pub mod tdcr;
+pub mod trajectory;
 
 pub use design::{Leg, Tdcr, Tdpcr};
 pub use error::{DesignError, SolveError};

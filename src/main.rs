@@ -31,8 +31,41 @@ enum Command {
     Fk(FkArgs),
     /// Inverse kinetostatics of a parallel robot (6-DoF design): the actuation for a pose.
     Ik(IkArgs),
+    /// Solve a sequence of IK poses or FK actuations, each warm-started from the last.
+    Trajectory(TrajectoryArgs),
+    /// Compare the exact Jacobian blocks with finite differences and time both.
+    JacobianCheck(JacobianCheckArgs),
     /// Load and validate a design file (TDCR or TDPCR) and print a summary.
     Validate(ValidateArgs),
+}
+
+#[derive(clap::Args)]
+struct TrajectoryArgs {
+    /// Design file (RON, `Tdpcr(...)`).
+    design: PathBuf,
+    /// CSV of poses, columns x,y,z,rx,ry,rz [m, rad] (IK; 6-DoF design).
+    #[arg(long, conflicts_with = "fk", required_unless_present = "fk")]
+    ik: Option<PathBuf>,
+    /// CSV of actuations, columns q1..qn [m] (FK).
+    #[arg(long)]
+    fk: Option<PathBuf>,
+    #[command(flatten)]
+    solve: SolveArgs,
+}
+
+#[derive(clap::Args)]
+struct JacobianCheckArgs {
+    /// Design file (RON, `Tdpcr(...)`).
+    design: PathBuf,
+    /// Number of configurations (seeded actuation vectors over half the actuation range).
+    #[arg(long, default_value_t = 5)]
+    samples: usize,
+    /// Seed of the actuation vectors.
+    #[arg(long, default_value_t = 42)]
+    seed: u64,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t)]
+    format: Format,
 }
 
 /// Jacobian used by Newton.
@@ -428,6 +461,115 @@ fn run_ik(args: &IkArgs) -> Result<(), Error> {
     report(&solver, result, args.solve.format)
 }
 
+#[derive(Serialize)]
+struct TrajectoryOutput {
+    steps: Vec<tdpcr::trajectory::StepResult>,
+    stats: tdpcr::trajectory::Stats,
+}
+
+fn run_trajectory(args: &TrajectoryArgs) -> Result<(), Error> {
+    let (mut solver, wrench, _) = prepare(&args.design, &args.solve)?;
+    let targets = match (&args.ik, &args.fk) {
+        (Some(path), _) => {
+            let rows = tdpcr::trajectory::read_csv(path, 6, "x,y,z,rx,ry,rz")?;
+            tdpcr::trajectory::Targets::Poses(tdpcr::trajectory::poses_from_rows(&rows))
+        }
+        (None, Some(path)) => {
+            let n = solver.model().n_actuators();
+            let what = format!("q1..q{n}");
+            tdpcr::trajectory::Targets::Actuations(tdpcr::trajectory::read_csv(path, n, &what)?)
+        }
+        (None, None) => unreachable!("clap requires --ik or --fk"),
+    };
+    let (steps, stats) = tdpcr::trajectory::run_trajectory(&mut solver, &targets, &wrench);
+    let failed = stats.failed;
+    match args.solve.format {
+        Format::Json => {
+            let out = TrajectoryOutput { steps, stats };
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&out).expect("plain data serializes")
+            );
+        }
+        Format::Text => {
+            println!("step,converged,iterations,solve_time_us,x,y,z,rx,ry,rz,q");
+            for s in &steps {
+                let q: Vec<String> = s.q.iter().map(|x| x.to_string()).collect();
+                println!(
+                    "{},{},{},{:.1},{},{},{},{},{},{},{}",
+                    s.step,
+                    s.converged,
+                    s.iterations,
+                    s.solve_time_us,
+                    s.position[0],
+                    s.position[1],
+                    s.position[2],
+                    s.rotvec[0],
+                    s.rotvec[1],
+                    s.rotvec[2],
+                    q.join(";")
+                );
+            }
+            eprintln!(
+                "{} steps, {} failed; per step: median {:.0} µs, mean {:.0} µs, max {:.0} µs, median {} iterations",
+                stats.steps,
+                stats.failed,
+                stats.median_us,
+                stats.mean_us,
+                stats.max_us,
+                stats.median_iterations
+            );
+        }
+    }
+    if failed > 0 {
+        return Err(Error::Solve(tdpcr::SolveError::NotConverged {
+            iterations: 0,
+            residual_norm: f64::NAN,
+            tolerance: args.solve.tolerance,
+            reason: "some trajectory steps failed (see converged = false)",
+        }));
+    }
+    Ok(())
+}
+
+fn run_jacobian_check(args: &JacobianCheckArgs) -> Result<(), Error> {
+    let design = Tdpcr::from_ron_file(&args.design)?;
+    let mut solver = Solver::new(&design);
+    let check = tdpcr::jacobian_check::jacobian_check(&mut solver, args.samples, args.seed);
+    match args.format {
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&check).expect("plain data serializes")
+        ),
+        Format::Text => {
+            let e = &check.max_rel_error;
+            println!("configurations solved: {}/{}", check.solved, check.samples);
+            println!(
+                "max relative error vs central FD: B_x {:.1e}, B_q {:.1e}, B_w {:.1e}, B_u {:.1e}",
+                e.b_x, e.b_q, e.b_w, e.b_u
+            );
+            println!(
+                "one Jacobian: exact {:.0} µs, forward FD {:.0} µs ({:.1}x), central FD {:.0} µs ({:.1}x)",
+                check.time_exact_us,
+                check.time_fd_forward_us,
+                check.time_fd_forward_us / check.time_exact_us,
+                check.time_fd_central_us,
+                check.time_fd_central_us / check.time_exact_us
+            );
+        }
+    }
+    if check.solved == 0 {
+        let mut v = tdpcr::error::Violations::default();
+        v.push(
+            "--samples",
+            args.samples,
+            "at least one configuration that solves",
+        );
+        return Err(Error::Input(v));
+    }
+    Ok(())
+}
+
 fn run_validate(args: &ValidateArgs) -> Result<(), Error> {
     let text = std::fs::read_to_string(&args.design).map_err(|source| tdpcr::DesignError::Io {
         path: args.design.clone(),
@@ -464,6 +606,8 @@ fn main() -> ExitCode {
         Command::Tdcr(a) => run_tdcr(a),
         Command::Fk(a) => run_fk(a),
         Command::Ik(a) => run_ik(a),
+        Command::Trajectory(a) => run_trajectory(a),
+        Command::JacobianCheck(a) => run_jacobian_check(a),
         Command::Validate(a) => run_validate(a),
     };
     match result {

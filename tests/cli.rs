@@ -289,3 +289,60 @@ fn fk_and_ik_report_bad_input_and_failures() {
     assert_eq!(v["converged"], serde_json::Value::Bool(false));
     assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
 }
+
+#[test]
+fn trajectory_reports_steps_and_stats_and_jacobian_check_compares_blocks() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-traj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("q.csv");
+    let mut csv = String::from("q1,q2,q3,q4,q5,q6\n");
+    for k in 0..5 {
+        let x = 0.0005 * k as f64;
+        csv.push_str(&format!("{x},{},0,0,0,0\n", 2.0 * x));
+    }
+    std::fs::write(&path, csv).unwrap();
+    let o = tdpcr(&[
+        "trajectory",
+        &design(),
+        "--fk",
+        path.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["steps"].as_array().unwrap().len(), 5);
+    for key in ["median_us", "mean_us", "max_us", "failed"] {
+        assert!(v["stats"].get(key).is_some(), "missing stats.{key}");
+    }
+    assert_eq!(v["stats"]["failed"].as_u64(), Some(0));
+    // Warm-started steps after the first need few iterations.
+    assert!(v["steps"][4]["iterations"].as_u64().unwrap() <= 6);
+    std::fs::write(&path, "0,0,0\n").unwrap();
+    let o = tdpcr(&["trajectory", &design(), "--fk", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("q.csv:1:1 = 3 columns: expected 6 columns"),
+        "{}",
+        stderr(&o)
+    );
+
+    let o = tdpcr(&[
+        "jacobian-check",
+        &design(),
+        "--samples",
+        "2",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for block in ["b_x", "b_q", "b_w", "b_u"] {
+        let e = v["max_rel_error"][block].as_f64().unwrap();
+        assert!(e < 1e-6, "{block}: {e}");
+    }
+    for key in ["time_exact_us", "time_fd_forward_us", "time_fd_central_us"] {
+        assert!(v[key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

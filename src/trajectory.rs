@@ -1,0 +1,286 @@
+//! Sequences of solves, each warm-started from the previous solution (paper Tab. VII):
+//! CSV input, per-step results and timing statistics.
+
+use std::path::Path;
+
+use nalgebra::{Rotation3, Vector3};
+use serde::Serialize;
+
+use crate::error::{Error, Violations};
+use crate::kinetostatics::{RobotState, Solver};
+use crate::model::Pose;
+use crate::rod::Wrench;
+
+/// What each row of a trajectory asks for.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Targets {
+    /// IK targets: platform poses.
+    Poses(Vec<Pose>),
+    /// FK targets: actuation vectors.
+    Actuations(Vec<Vec<f64>>),
+}
+
+/// The result of one step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepResult {
+    /// Row index in the input (0-based, header excluded).
+    pub step: usize,
+    /// Whether Newton converged.
+    pub converged: bool,
+    /// Platform position [m] (of the solution, or of the target if not converged).
+    pub position: [f64; 3],
+    /// Platform rotation vector [rad].
+    pub rotvec: [f64; 3],
+    /// Actuation [m].
+    pub q: Vec<f64>,
+    /// Newton iterations.
+    pub iterations: usize,
+    /// Final residual norm (NaN-free: the last norm reached when not converged).
+    pub residual_norm: f64,
+    /// Wall time of the solve [µs].
+    pub solve_time_us: f64,
+}
+
+/// Timing over all steps of a trajectory.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stats {
+    /// Number of steps.
+    pub steps: usize,
+    /// Median solve time per step [µs].
+    pub median_us: f64,
+    /// Mean solve time per step [µs].
+    pub mean_us: f64,
+    /// Largest solve time of a step [µs].
+    pub max_us: f64,
+    /// Median Newton iterations per step.
+    pub median_iterations: f64,
+    /// Steps that did not converge.
+    pub failed: usize,
+}
+
+/// Reads a CSV of numbers with `width` columns (a first line that is not numeric is a
+/// header and is skipped; blank lines and lines starting with `#` are ignored).
+///
+/// # Errors
+/// [`Error::Input`] naming the file, line and column of every bad field.
+pub fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        let mut v = Violations::default();
+        v.push(
+            path.display().to_string(),
+            "unreadable",
+            &format!("a readable CSV file ({e})"),
+        );
+        Error::Input(v)
+    })?;
+    let mut rows = Vec::new();
+    let mut v = Violations::default();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parsed: Vec<Option<f64>> = fields
+            .iter()
+            .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect();
+        if rows.is_empty() && v.0.is_empty() && parsed.iter().all(Option::is_none) {
+            continue; // header
+        }
+        let at = |c: usize| format!("{}:{}:{}", path.display(), i + 1, c + 1);
+        if fields.len() != width {
+            v.push(
+                at(0),
+                format!("{} columns", fields.len()),
+                &format!("{width} columns: {what}"),
+            );
+            continue;
+        }
+        for (c, p) in parsed.iter().enumerate() {
+            if p.is_none() {
+                v.push(at(c), fields[c], "a finite number");
+            }
+        }
+        rows.push(parsed.into_iter().map(|p| p.unwrap_or(0.0)).collect());
+    }
+    if rows.is_empty() && v.0.is_empty() {
+        v.push(
+            path.display().to_string(),
+            "no data rows",
+            &format!("at least one row of {what}"),
+        );
+    }
+    if v.0.is_empty() {
+        Ok(rows)
+    } else {
+        Err(Error::Input(v))
+    }
+}
+
+/// Poses from rows x,y,z,rx,ry,rz.
+pub fn poses_from_rows(rows: &[Vec<f64>]) -> Vec<Pose> {
+    rows.iter()
+        .map(|r| Pose {
+            position: Vector3::new(r[0], r[1], r[2]),
+            rotation: *Rotation3::new(Vector3::new(r[3], r[4], r[5])).matrix(),
+        })
+        .collect()
+}
+
+/// Solves every target in order, each step warm-started from the last converged state
+/// (the first from a cold start). A failed step is recorded and the next one starts from
+/// the last converged state.
+pub fn run_trajectory(
+    solver: &mut Solver,
+    targets: &Targets,
+    extra: &Wrench,
+) -> (Vec<StepResult>, Stats) {
+    let mut state: Option<RobotState> = None;
+    let mut steps = Vec::new();
+    let count = match targets {
+        Targets::Poses(p) => p.len(),
+        Targets::Actuations(q) => q.len(),
+    };
+    for step in 0..count {
+        let start = std::time::Instant::now();
+        let result = match targets {
+            Targets::Poses(p) => solver.solve_ik(&p[step], extra, state.as_ref()),
+            Targets::Actuations(q) => solver.solve_fk(&q[step], extra, state.as_ref()),
+        };
+        let elapsed = start.elapsed().as_secs_f64() * 1e6;
+        steps.push(match result {
+            Ok(sol) => {
+                let r = StepResult {
+                    step,
+                    converged: true,
+                    position: sol.state.position,
+                    rotvec: sol.state.rotvec,
+                    q: sol.state.q.clone(),
+                    iterations: sol.report.iterations,
+                    residual_norm: sol.report.residual_norm,
+                    solve_time_us: sol.solve_time_us,
+                };
+                state = Some(sol.state);
+                r
+            }
+            Err(e) => {
+                let (iterations, residual_norm) = match &e {
+                    Error::Solve(crate::SolveError::NotConverged {
+                        iterations,
+                        residual_norm,
+                        ..
+                    }) => (*iterations, *residual_norm),
+                    _ => (0, f64::INFINITY),
+                };
+                let (position, rotvec, q) = match targets {
+                    Targets::Poses(p) => (
+                        p[step].position.into(),
+                        Rotation3::from_matrix_unchecked(p[step].rotation)
+                            .scaled_axis()
+                            .into(),
+                        Vec::new(),
+                    ),
+                    Targets::Actuations(q) => ([0.0; 3], [0.0; 3], q[step].clone()),
+                };
+                StepResult {
+                    step,
+                    converged: false,
+                    position,
+                    rotvec,
+                    q,
+                    iterations,
+                    residual_norm: if residual_norm.is_finite() {
+                        residual_norm
+                    } else {
+                        f64::MAX
+                    },
+                    solve_time_us: elapsed,
+                }
+            }
+        });
+    }
+    let stats = stats_of(&steps);
+    (steps, stats)
+}
+
+fn stats_of(steps: &[StepResult]) -> Stats {
+    let mut times: Vec<f64> = steps.iter().map(|s| s.solve_time_us).collect();
+    times.sort_by(f64::total_cmp);
+    let mut its: Vec<f64> = steps.iter().map(|s| s.iterations as f64).collect();
+    its.sort_by(f64::total_cmp);
+    let median = |v: &[f64]| match v.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    };
+    Stats {
+        steps: steps.len(),
+        median_us: median(&times),
+        mean_us: if times.is_empty() {
+            0.0
+        } else {
+            times.iter().sum::<f64>() / times.len() as f64
+        },
+        max_us: times.last().copied().unwrap_or(0.0),
+        median_iterations: median(&its),
+        failed: steps.iter().filter(|s| !s.converged).count(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_reader_skips_a_header_and_names_bad_fields() {
+        let dir = std::env::temp_dir().join(format!("tdpcr-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("poses.csv");
+        std::fs::write(
+            &path,
+            "x,y,z,rx,ry,rz\n0,0,0,0,0,0\n# comment\n\n0.001,0,0,0,0,0\n",
+        )
+        .unwrap();
+        let rows = read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1][0], 0.001);
+        std::fs::write(&path, "0,0,0,0,0,0\n0,abc,0,0,0,0\n0,0,0\n").unwrap();
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.csv:2:2 = abc: expected a finite number"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("poses.csv:3:1 = 3 columns: expected 6 columns"),
+            "{msg}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn stats_use_all_steps() {
+        let step = |t: f64, ok: bool| StepResult {
+            step: 0,
+            converged: ok,
+            position: [0.0; 3],
+            rotvec: [0.0; 3],
+            q: vec![],
+            iterations: 2,
+            residual_norm: 0.0,
+            solve_time_us: t,
+        };
+        let s = stats_of(&[
+            step(3.0, true),
+            step(1.0, true),
+            step(10.0, false),
+            step(2.0, true),
+        ]);
+        assert_eq!(
+            (s.median_us, s.mean_us, s.max_us, s.failed),
+            (2.5, 4.0, 10.0, 1)
+        );
+    }
+}
