@@ -22,6 +22,7 @@ use crate::boundary::{
 };
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, Violations};
+use crate::linalg::DenseLu;
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
 use crate::rod::Wrench;
@@ -30,6 +31,11 @@ use crate::rod::tendon::TendonUnknown;
 /// The tendon variable Newton iterates on (states report γ): the piecewise-linear ζ
 /// converges in a few steps where γ stalls near the taut/slack boundary.
 const SOLVER_TENDON_UNKNOWN: TendonUnknown = TendonUnknown::Linear;
+
+/// Weight ε of the scaled leg unknowns in the least-norm IK step (q in metres). Without
+/// it the step can move far along null-space directions that change q little (measured:
+/// the line search then stalls; 1e-6 to 1e-4 converge in 3–5 steps).
+const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
 use crate::tdcr::{TendonControl, cold_guess_at};
 
 /// How the Newton Jacobian is obtained.
@@ -227,12 +233,12 @@ impl Solver {
         finish(result, start)
     }
 
-    /// Inverse kinetostatics (6-DoF design): actuation and leg states that hold the platform
-    /// at `pose` under its weight plus `extra`.
+    /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
+    /// under its weight plus `extra`. The 6-DoF design solves the square system; the 9-DoF
+    /// design takes, at every Gauss–Newton step, the least-norm change of q.
     ///
     /// # Errors
-    /// As [`Solver::solve_fk`]; [`Error::Input`] for the 9-DoF design (redundant: use the
-    /// least-norm or QP variant, not yet available).
+    /// As [`Solver::solve_fk`].
     pub fn solve_ik(
         &mut self,
         pose: &Pose,
@@ -240,13 +246,6 @@ impl Solver {
         init: Option<&RobotState>,
     ) -> Result<Solution, Error> {
         let mut v = Violations::default();
-        if self.model.pairs != 1 {
-            v.push(
-                "design",
-                "9-DoF (two tendon pairs per leg)",
-                "the 6-DoF design for square IK",
-            );
-        }
         if !pose
             .position
             .iter()
@@ -270,9 +269,168 @@ impl Solver {
                     .into(),
                 ..s.clone()
             },
-            None => return finish(self.cold_ik(pose, &wrench), start),
+            None if self.model.pairs == 1 => return finish(self.cold_ik(pose, &wrench), start),
+            None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
-        finish(self.run(Problem::Inverse { pose }, &wrench, guess), start)
+        if self.model.pairs == 1 {
+            finish(self.run(Problem::Inverse { pose }, &wrench, guess), start)
+        } else {
+            finish(self.least_norm_ik(pose, &wrench, guess), start)
+        }
+    }
+
+    /// IK of the redundant (9-DoF) design: Gauss–Newton steps that change q least,
+    /// min ½‖δq‖² + ½ε‖D δy‖² subject to B_q δq + B_u δy = −b (a KKT system; ε =
+    /// [`LEAST_NORM_Y_WEIGHT`] on the column-scaled leg unknowns keeps the step bounded in
+    /// the null space), with a backtracking line search on the weighted residual.
+    fn least_norm_ik(
+        &mut self,
+        pose: &Pose,
+        wrench: &Wrench,
+        guess: RobotState,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let model = &self.model;
+        let (nq, nu, m) = (
+            model.n_actuators(),
+            3 * model.n_leg_unknowns(),
+            model.n_residuals(),
+        );
+        let n = nq + nu + m;
+        let mut q = guess.q.clone();
+        let mut y = guess.y_u.clone();
+        convert_tendon_unknowns(model, &mut y, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
+        let mut weights = DVector::zeros(m);
+        row_weights(model, &mut weights);
+        let merit = |r: &DVector<f64>| r.component_mul(&weights).norm_squared();
+        let mut r = DVector::zeros(m);
+        let mut kkt = DMatrix::zeros(n, n);
+        let mut rhs = DVector::zeros(n);
+        let mut lu = DenseLu::new(n);
+        let mut report = NewtonReport {
+            iterations: 0,
+            residual_evaluations: 0,
+            residual_norm: f64::NAN,
+        };
+        loop {
+            let p = BoundaryPoint {
+                pose,
+                q: &q,
+                wrench,
+                y_u: &y,
+                tendon_unknown: SOLVER_TENDON_UNKNOWN,
+            };
+            boundary_derivatives(model, &mut self.boundary, &p, &mut r, &mut self.blocks)?;
+            report.residual_evaluations += 1;
+            report.residual_norm = r.norm();
+            if report.residual_norm <= self.settings.tolerance {
+                convert_tendon_unknowns(model, &mut y, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+                let state = RobotState {
+                    position: pose.position.into(),
+                    rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                        .scaled_axis()
+                        .into(),
+                    q,
+                    y_u: y,
+                };
+                return Ok((state, report));
+            }
+            if report.iterations >= self.settings.max_iterations {
+                return Err(SolveError::NotConverged {
+                    iterations: report.iterations,
+                    residual_norm: report.residual_norm,
+                    tolerance: self.settings.tolerance,
+                    reason: "iteration limit reached",
+                });
+            }
+            // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,
+            // C = W B_u D⁻¹ (rows weighted, y columns scaled to unit norm; δy = D⁻¹ δỹ).
+            let mut a = self.blocks.b_q.clone();
+            let mut c = self.blocks.b_u.clone();
+            for i in 0..m {
+                a.row_mut(i).scale_mut(weights[i]);
+                c.row_mut(i).scale_mut(weights[i]);
+            }
+            let scale: Vec<f64> = (0..nu)
+                .map(|j| {
+                    let norm = c.column(j).norm();
+                    if norm > 0.0 { 1.0 / norm } else { 1.0 }
+                })
+                .collect();
+            for j in 0..nu {
+                c.column_mut(j).scale_mut(scale[j]);
+            }
+            kkt.fill(0.0);
+            rhs.fill(0.0);
+            for i in 0..nq {
+                kkt[(i, i)] = 1.0;
+            }
+            // A small weight on the (scaled) leg unknowns keeps the step out of the
+            // null-space directions that move y much and q little.
+            for j in 0..nu {
+                kkt[(nq + j, nq + j)] = LEAST_NORM_Y_WEIGHT;
+            }
+            kkt.view_mut((nq + nu, 0), (m, nq)).copy_from(&a);
+            kkt.view_mut((nq + nu, nq), (m, nu)).copy_from(&c);
+            kkt.view_mut((0, nq + nu), (nq, m))
+                .copy_from(&a.transpose());
+            kkt.view_mut((nq, nq + nu), (nu, m))
+                .copy_from(&c.transpose());
+            for i in 0..m {
+                rhs[nq + nu + i] = -r[i] * weights[i];
+            }
+            if lu.factor(&kkt).is_err() {
+                return Err(SolveError::NotConverged {
+                    iterations: report.iterations,
+                    residual_norm: report.residual_norm,
+                    tolerance: self.settings.tolerance,
+                    reason: "singular least-norm step ([B_q B_u] lost rank)",
+                });
+            }
+            lu.solve_in_place(&mut rhs);
+            for j in 0..nu {
+                rhs[nq + j] *= scale[j];
+            }
+            let m0 = merit(&r);
+            let mut alpha = 1.0;
+            let mut trial = DVector::zeros(m);
+            loop {
+                let q_t: Vec<f64> = q
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| x + alpha * rhs[i])
+                    .collect();
+                let y_t: Vec<f64> = y
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| x + alpha * rhs[nq + i])
+                    .collect();
+                let p = BoundaryPoint {
+                    pose,
+                    q: &q_t,
+                    wrench,
+                    y_u: &y_t,
+                    tendon_unknown: SOLVER_TENDON_UNKNOWN,
+                };
+                report.residual_evaluations += 1;
+                let ok = boundary_residual(model, &mut self.boundary, &p, &mut trial).is_ok()
+                    && trial.iter().all(|x| x.is_finite());
+                if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
+                    q = q_t;
+                    y = y_t;
+                    break;
+                }
+                alpha *= 0.5;
+                if alpha < 1e-6 {
+                    return Err(SolveError::NotConverged {
+                        iterations: report.iterations,
+                        residual_norm: report.residual_norm,
+                        tolerance: self.settings.tolerance,
+                        reason: "line search failed",
+                    });
+                }
+            }
+            report.iterations += 1;
+        }
     }
 
     /// The straight home guess for platform `pose` and actuation `q`.
@@ -678,6 +836,31 @@ pub fn straight_leg_pose(model: &Model, q: &[f64]) -> Pose {
     }
 }
 
+/// Merit-function weights of the residual rows: force rows by L²/(EI), moment rows by
+/// L/(EI), coupling rows by 1/L, tendon-length rows by 1/D (each row ~ an angle).
+fn row_weights(model: &Model, w: &mut DVector<f64>) {
+    let leg = &model.leg;
+    let ei = leg.bending_stiffness();
+    let len = leg.length;
+    let force = len * len / ei;
+    let moment = len / ei;
+    let length = 1.0 / leg.max_offset().max(1e-6);
+    let nu = model.n_leg_unknowns();
+    for i in 0..w.len() {
+        w[i] = if i < 3 {
+            force
+        } else if i < 6 {
+            moment
+        } else {
+            match (i - 6) % nu {
+                0..3 => 1.0 / len,
+                3..6 => moment,
+                _ => length,
+            }
+        };
+    }
+}
+
 /// The shooting problem as a [`NonlinearSystem`].
 struct ShootingSystem<'a> {
     model: &'a Model,
@@ -762,26 +945,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
     }
 
     fn row_weights(&self, w: &mut DVector<f64>) {
-        let leg = &self.model.leg;
-        let ei = leg.bending_stiffness();
-        let len = leg.length;
-        let force = len * len / ei;
-        let moment = len / ei;
-        let length = 1.0 / leg.max_offset().max(1e-6);
-        let nu = self.model.n_leg_unknowns();
-        for i in 0..w.len() {
-            w[i] = if i < 3 {
-                force
-            } else if i < 6 {
-                moment
-            } else {
-                match (i - 6) % nu {
-                    0..3 => 1.0 / len,
-                    3..6 => moment,
-                    _ => length,
-                }
-            };
-        }
+        row_weights(self.model, w);
     }
 
     fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {

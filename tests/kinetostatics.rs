@@ -171,17 +171,43 @@ fn warm_newton_converges_quadratically() {
 }
 
 #[test]
-fn the_redundant_design_solves_fk() {
+fn the_redundant_design_solves_fk_and_least_norm_ik() {
     let mut s = solver("lilge2022_redundant.ron");
     let sol = s.solve_fk(&[0.0; 9], &Wrench::default(), None).unwrap();
     let err = independent_check(s.model(), &sol.state, &s.total_wrench(&Wrench::default()));
     assert!(err < 1e-9, "{err:.2e}");
-    // Square IK is for the 6-DoF design; the redundant one says so.
-    let pose = sol.state.pose();
-    match s.solve_ik(&pose, &Wrench::default(), None) {
-        Err(Error::Input(v)) => assert!(v.to_string().contains("6-DoF design"), "{v}"),
-        other => panic!("expected an input error, got {other:?}"),
+    // Least-norm IK of a displaced pose, warm and cold; FK of its q returns the pose.
+    let w = Wrench::default();
+    let mut pose = sol.state.pose();
+    pose.position += Vector3::new(0.005, 0.0, 0.003);
+    let warm = s.solve_ik(&pose, &w, Some(&sol.state)).unwrap();
+    let cold = s.solve_ik(&pose, &w, None).unwrap();
+    assert!(warm.report.iterations <= 8, "{:?}", warm.report);
+    for ik in [&warm, &cold] {
+        let err = independent_check(s.model(), &ik.state, &s.total_wrench(&w));
+        assert!(err < 1e-9, "{err:.2e}");
+        let mut start = ik.state.clone();
+        start.position[0] += 0.002;
+        let back = s
+            .solve_fk(&ik.state.q, &w, Some(&start))
+            .unwrap()
+            .state
+            .pose();
+        assert!((back.position - pose.position).norm() < 1e-9);
+        let angle =
+            Rotation3::from_matrix_unchecked(back.rotation * pose.rotation.transpose()).angle();
+        assert!(angle < 1e-9, "{angle:.2e}");
     }
+    // From the FK state, the least-norm change of q is small: 9 actuators share the motion.
+    let dq: f64 = warm
+        .state
+        .q
+        .iter()
+        .zip(&sol.state.q)
+        .map(|(a, b)| (a - b).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!(dq < 0.02, "|dq| = {dq}");
 }
 
 #[test]
