@@ -227,7 +227,13 @@ impl Solver {
         let wrench = self.total_wrench(extra);
         let start = Instant::now();
         let result = match init {
-            Some(s) => self.run(Problem::Forward { q }, &wrench, s.clone()),
+            Some(s) => {
+                let settings = self.settings;
+                let direct =
+                    self.solve_target(&settings, &Target::Forward(q.to_vec()), &wrench, s.clone());
+                // A warm start too far away: follow the straight line in q from it.
+                direct.or_else(|e| self.ramp_actuation(s.clone(), q, &wrench).map_err(|_| e))
+            }
             None => self.cold_fk(q, &wrench),
         };
         finish(result, start)
@@ -272,11 +278,16 @@ impl Solver {
             None if self.model.pairs == 1 => return finish(self.cold_ik(pose, &wrench), start),
             None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
-        if self.model.pairs == 1 {
-            finish(self.run(Problem::Inverse { pose }, &wrench, guess), start)
-        } else {
-            finish(self.least_norm_ik(pose, &wrench, guess), start)
-        }
+        let settings = self.settings;
+        let direct = self.solve_target(&settings, &Target::Inverse(*pose), &wrench, guess);
+        let result = match (direct, init) {
+            // A warm start too far away: follow the pose path from it.
+            (Err(e), Some(s)) if s.q.len() == self.model.n_actuators() => {
+                self.ramp_pose(s.clone(), pose, &wrench).map_err(|_| e)
+            }
+            (r, _) => r,
+        };
+        finish(result, start)
     }
 
     /// IK of the redundant (9-DoF) design: Gauss–Newton steps that change q least,
@@ -285,6 +296,7 @@ impl Solver {
     /// the null space), with a backtracking line search on the weighted residual.
     fn least_norm_ik(
         &mut self,
+        settings: &NewtonSettings,
         pose: &Pose,
         wrench: &Wrench,
         guess: RobotState,
@@ -322,7 +334,7 @@ impl Solver {
             boundary_derivatives(model, &mut self.boundary, &p, &mut r, &mut self.blocks)?;
             report.residual_evaluations += 1;
             report.residual_norm = r.norm();
-            if report.residual_norm <= self.settings.tolerance {
+            if report.residual_norm <= settings.tolerance {
                 convert_tendon_unknowns(model, &mut y, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
                 let state = RobotState {
                     position: pose.position.into(),
@@ -334,11 +346,11 @@ impl Solver {
                 };
                 return Ok((state, report));
             }
-            if report.iterations >= self.settings.max_iterations {
+            if report.iterations >= settings.max_iterations {
                 return Err(SolveError::NotConverged {
                     iterations: report.iterations,
                     residual_norm: report.residual_norm,
-                    tolerance: self.settings.tolerance,
+                    tolerance: settings.tolerance,
                     reason: "iteration limit reached",
                 });
             }
@@ -382,7 +394,7 @@ impl Solver {
                 return Err(SolveError::NotConverged {
                     iterations: report.iterations,
                     residual_norm: report.residual_norm,
-                    tolerance: self.settings.tolerance,
+                    tolerance: settings.tolerance,
                     reason: "singular least-norm step ([B_q B_u] lost rank)",
                 });
             }
@@ -424,7 +436,7 @@ impl Solver {
                     return Err(SolveError::NotConverged {
                         iterations: report.iterations,
                         residual_norm: report.residual_norm,
-                        tolerance: self.settings.tolerance,
+                        tolerance: settings.tolerance,
                         reason: "line search failed",
                     });
                 }
@@ -474,19 +486,39 @@ impl Solver {
         .or(direct)
     }
 
-    /// FK along q(λ) = q_start + λ (q − q_start) from the solved `start`, warm-starting
-    /// each step; the step is halved when Newton needs more than a few iterations.
-    fn ramp_actuation(
+    /// Solves for one target (FK, square IK or least-norm IK) from `guess`.
+    fn solve_target(
+        &mut self,
+        settings: &NewtonSettings,
+        target: &Target,
+        wrench: &Wrench,
+        mut guess: RobotState,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        match target {
+            Target::Forward(q) => {
+                guess.q = q.clone();
+                self.run_with(None, settings, Problem::Forward { q }, wrench, guess)
+            }
+            Target::Inverse(pose) if self.model.pairs == 1 => {
+                self.run_with(None, settings, Problem::Inverse { pose }, wrench, guess)
+            }
+            Target::Inverse(pose) => self.least_norm_ik(settings, pose, wrench, guess),
+        }
+    }
+
+    /// Follows `target(λ)`, λ: 0 → 1, from the solved `start` (the solution at λ = 0),
+    /// warm-starting each step; the step is halved when Newton needs more than
+    /// [`CONTINUATION_MAX_ITERATIONS`] and doubled after an easy step.
+    fn ramp(
         &mut self,
         start: RobotState,
-        q: &[f64],
         wrench: &Wrench,
+        target: &dyn Fn(f64) -> Target,
     ) -> Result<(RobotState, NewtonReport), SolveError> {
         let settings = NewtonSettings {
             max_iterations: CONTINUATION_MAX_ITERATIONS.min(self.settings.max_iterations),
             ..self.settings
         };
-        let q0 = start.q.clone();
         let mut state = start;
         let mut total = NewtonReport {
             iterations: 0,
@@ -496,10 +528,7 @@ impl Solver {
         let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
         while lambda < 1.0 {
             let next = (lambda + step).min(1.0);
-            let qk: Vec<f64> = q0.iter().zip(q).map(|(a, b)| a + (b - a) * next).collect();
-            let mut guess = state.clone();
-            guess.q = qk.clone();
-            match self.run_with(None, &settings, Problem::Forward { q: &qk }, wrench, guess) {
+            match self.solve_target(&settings, &target(next), wrench, state.clone()) {
                 Ok((s, r)) => {
                     total.iterations += r.iterations;
                     total.residual_evaluations += r.residual_evaluations;
@@ -516,12 +545,59 @@ impl Solver {
                     }
                     step /= 2.0;
                     if step < 1.0 / 256.0 {
-                        return Err(e);
+                        return Err(match e {
+                            SolveError::NotConverged {
+                                residual_norm,
+                                tolerance,
+                                ..
+                            } => SolveError::NotConverged {
+                                iterations: total.iterations,
+                                residual_norm,
+                                tolerance,
+                                reason: "continuation towards the target stalled (a fold or no equilibrium?)",
+                            },
+                            other => other,
+                        });
                     }
                 }
             }
         }
         Ok((state, total))
+    }
+
+    /// FK along q(λ) = q_start + λ (q − q_start) from the solved `start`.
+    fn ramp_actuation(
+        &mut self,
+        start: RobotState,
+        q: &[f64],
+        wrench: &Wrench,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let q0 = start.q.clone();
+        let q1 = q.to_vec();
+        self.ramp(start, wrench, &move |l: f64| {
+            Target::Forward(q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * l).collect())
+        })
+    }
+
+    /// IK along the pose interpolated from `start`'s pose to `pose` (position linearly,
+    /// rotation along the geodesic).
+    fn ramp_pose(
+        &mut self,
+        start: RobotState,
+        pose: &Pose,
+        wrench: &Wrench,
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let p0 = start.pose();
+        let (dp, dr) = (
+            pose.position - p0.position,
+            Rotation3::from_matrix_unchecked(pose.rotation * p0.rotation.transpose()).scaled_axis(),
+        );
+        self.ramp(start, wrench, &move |l: f64| {
+            Target::Inverse(Pose {
+                position: p0.position + dp * l,
+                rotation: Rotation3::new(dr * l).matrix() * p0.rotation,
+            })
+        })
     }
 
     /// Cold IK: Newton from the straight guess; if that fails, continuation from the
