@@ -119,6 +119,15 @@ const CONTINUATION_PRETENSION: f64 = 1.0;
 /// Newton iterations allowed per continuation step before the step is halved.
 const CONTINUATION_MAX_ITERATIONS: usize = 10;
 
+/// How the loads evolve along a continuation.
+#[derive(Debug, Clone, Copy)]
+enum Loads {
+    /// The full loads throughout.
+    Full,
+    /// From zero to full with λ, with an auxiliary `pretension` [N] relaxing to the design's.
+    FromUnloaded { pretension: f64 },
+}
+
 /// The continuation target at one λ.
 enum Target {
     Forward(Vec<f64>),
@@ -229,8 +238,13 @@ impl Solver {
         let result = match init {
             Some(s) => {
                 let settings = self.settings;
-                let direct =
-                    self.solve_target(&settings, &Target::Forward(q.to_vec()), &wrench, s.clone());
+                let direct = self.solve_target(
+                    None,
+                    &settings,
+                    &Target::Forward(q.to_vec()),
+                    &wrench,
+                    s.clone(),
+                );
                 // A warm start too far away: follow the straight line in q from it.
                 direct.or_else(|e| self.ramp_actuation(s.clone(), q, &wrench).map_err(|_| e))
             }
@@ -279,7 +293,7 @@ impl Solver {
             None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
         let settings = self.settings;
-        let direct = self.solve_target(&settings, &Target::Inverse(*pose), &wrench, guess);
+        let direct = self.solve_target(None, &settings, &Target::Inverse(*pose), &wrench, guess);
         let result = match (direct, init) {
             // A warm start too far away: follow the pose path from it.
             (Err(e), Some(s)) if s.q.len() == self.model.n_actuators() => {
@@ -296,12 +310,13 @@ impl Solver {
     /// the null space), with a backtracking line search on the weighted residual.
     fn least_norm_ik(
         &mut self,
+        scaled: Option<&Model>,
         settings: &NewtonSettings,
         pose: &Pose,
         wrench: &Wrench,
         guess: RobotState,
     ) -> Result<(RobotState, NewtonReport), SolveError> {
-        let model = &self.model;
+        let model = scaled.unwrap_or(&self.model);
         let (nq, nu, m) = (
             model.n_actuators(),
             3 * model.n_leg_unknowns(),
@@ -487,8 +502,10 @@ impl Solver {
     }
 
     /// Solves for one target (FK, square IK or least-norm IK) from `guess`.
+    /// `scaled` replaces the model when given (continuation of the loads).
     fn solve_target(
         &mut self,
+        scaled: Option<&Model>,
         settings: &NewtonSettings,
         target: &Target,
         wrench: &Wrench,
@@ -497,27 +514,37 @@ impl Solver {
         match target {
             Target::Forward(q) => {
                 guess.q = q.clone();
-                self.run_with(None, settings, Problem::Forward { q }, wrench, guess)
+                self.run_with(scaled, settings, Problem::Forward { q }, wrench, guess)
             }
             Target::Inverse(pose) if self.model.pairs == 1 => {
-                self.run_with(None, settings, Problem::Inverse { pose }, wrench, guess)
+                self.run_with(scaled, settings, Problem::Inverse { pose }, wrench, guess)
             }
-            Target::Inverse(pose) => self.least_norm_ik(settings, pose, wrench, guess),
+            Target::Inverse(pose) => self.least_norm_ik(scaled, settings, pose, wrench, guess),
         }
     }
 
-    /// Follows `target(λ)`, λ: 0 → 1, from the solved `start` (the solution at λ = 0),
-    /// warm-starting each step; the step is halved when Newton needs more than
-    /// [`CONTINUATION_MAX_ITERATIONS`] and doubled after an easy step.
+    /// Follows `target(λ)`, λ: 0 → 1, from `start` (the solution at λ = 0), warm-starting
+    /// each step; the step is halved when Newton needs more than
+    /// [`CONTINUATION_MAX_ITERATIONS`] and doubled after an easy step. With
+    /// [`Loads::FromUnloaded`] the gravity loads and `wrench` grow with λ and the auxiliary
+    /// pretension relaxes to the design's; intermediate steps then stop at 1e-7.
     fn ramp(
         &mut self,
         start: RobotState,
         wrench: &Wrench,
         target: &dyn Fn(f64) -> Target,
+        loads: Loads,
     ) -> Result<(RobotState, NewtonReport), SolveError> {
-        let settings = NewtonSettings {
+        let last_settings = NewtonSettings {
             max_iterations: CONTINUATION_MAX_ITERATIONS.min(self.settings.max_iterations),
             ..self.settings
+        };
+        let intermediate = match loads {
+            Loads::Full => last_settings,
+            Loads::FromUnloaded { .. } => NewtonSettings {
+                tolerance: last_settings.tolerance.max(1e-7),
+                ..last_settings
+            },
         };
         let mut state = start;
         let mut total = NewtonReport {
@@ -528,7 +555,25 @@ impl Solver {
         let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
         while lambda < 1.0 {
             let next = (lambda + step).min(1.0);
-            match self.solve_target(&settings, &target(next), wrench, state.clone()) {
+            let settings = if next >= 1.0 {
+                last_settings
+            } else {
+                intermediate
+            };
+            let (scaled, w) = match loads {
+                Loads::Full => (None, *wrench),
+                Loads::FromUnloaded { pretension } => (
+                    Some(self.model.with_homotopy(
+                        next,
+                        pretension + (self.model.pretension - pretension) * next,
+                    )),
+                    Wrench {
+                        force: wrench.force * next,
+                        moment: wrench.moment * next,
+                    },
+                ),
+            };
+            match self.solve_target(scaled.as_ref(), &settings, &target(next), &w, state.clone()) {
                 Ok((s, r)) => {
                     total.iterations += r.iterations;
                     total.residual_evaluations += r.residual_evaluations;
@@ -574,9 +619,10 @@ impl Solver {
     ) -> Result<(RobotState, NewtonReport), SolveError> {
         let q0 = start.q.clone();
         let q1 = q.to_vec();
-        self.ramp(start, wrench, &move |l: f64| {
+        let target = move |l: f64| {
             Target::Forward(q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * l).collect())
-        })
+        };
+        self.ramp(start, wrench, &target, Loads::Full)
     }
 
     /// IK along the pose interpolated from `start`'s pose to `pose` (position linearly,
@@ -592,12 +638,13 @@ impl Solver {
             pose.position - p0.position,
             Rotation3::from_matrix_unchecked(pose.rotation * p0.rotation.transpose()).scaled_axis(),
         );
-        self.ramp(start, wrench, &move |l: f64| {
+        let target = move |l: f64| {
             Target::Inverse(Pose {
                 position: p0.position + dp * l,
                 rotation: Rotation3::new(dr * l).matrix() * p0.rotation,
             })
-        })
+        };
+        self.ramp(start, wrench, &target, Loads::Full)
     }
 
     /// Cold IK: Newton from the straight guess; if that fails, continuation from the
@@ -625,104 +672,24 @@ impl Solver {
         .or(direct)
     }
 
-    /// Homotopy λ: 0 → 1 scaling the loads (gravity of legs and platform, external wrench),
-    /// relaxing an auxiliary pretension to the design's, and moving the target with
-    /// `target(λ)`. At λ = 0 the straight home configuration is an exact solution; each step is warm-started from the last. The step adapts: halved
-    /// on failure, doubled after an easy step.
+    /// Homotopy from the unloaded straight home configuration (an exact solution with an
+    /// auxiliary pretension that keeps every tendon taut) to `target(1)` under the full
+    /// loads and the design's pretension; see [`Solver::ramp`].
     fn continuation(
         &mut self,
         wrench: &Wrench,
         target: &dyn Fn(f64) -> Target,
     ) -> Result<(RobotState, NewtonReport), SolveError> {
-        let mut total = NewtonReport {
-            iterations: 0,
-            residual_evaluations: 0,
-            residual_norm: f64::NAN,
-        };
-        let add = |total: &mut NewtonReport, r: &NewtonReport| {
-            total.iterations += r.iterations;
-            total.residual_evaluations += r.residual_evaluations;
-            total.residual_norm = r.residual_norm;
-        };
         let zero = vec![0.0; self.model.n_actuators()];
         let home = straight_leg_pose(&self.model, &zero);
-        let tau0 = CONTINUATION_PRETENSION.max(self.model.pretension);
-        let start_model = self.model.with_homotopy(0.0, tau0);
-        let mut state = home_guess(&start_model, &home, &zero, &Wrench::default());
-        let mut lambda: f64 = 0.0;
-        let mut step: f64 = CONTINUATION_FIRST_STEP;
-        let intermediate = NewtonSettings {
-            tolerance: self.settings.tolerance.max(1e-7),
-            max_iterations: CONTINUATION_MAX_ITERATIONS,
-            ..self.settings
-        };
-        let last_settings = NewtonSettings {
-            max_iterations: CONTINUATION_MAX_ITERATIONS.min(self.settings.max_iterations),
-            ..self.settings
-        };
-        let mut failures = 0;
-        loop {
-            let next = (lambda + step).min(1.0);
-            let last = next >= 1.0;
-            let settings = if last { last_settings } else { intermediate };
-            let scaled = self
-                .model
-                .with_homotopy(next, tau0 + (self.model.pretension - tau0) * next);
-            let w = Wrench {
-                force: wrench.force * next,
-                moment: wrench.moment * next,
-            };
-            let mut guess = state.clone();
-            let problem_target = target(next);
-            let result = match &problem_target {
-                Target::Forward(q) => {
-                    guess.q = q.clone();
-                    self.run_with(Some(&scaled), &settings, Problem::Forward { q }, &w, guess)
-                }
-                Target::Inverse(pose) => self.run_with(
-                    Some(&scaled),
-                    &settings,
-                    Problem::Inverse { pose },
-                    &w,
-                    guess,
-                ),
-            };
-            match result {
-                Ok((s, r)) => {
-                    add(&mut total, &r);
-                    state = s;
-                    lambda = next;
-                    if last {
-                        return Ok((state, total));
-                    }
-                    if r.iterations <= 4 {
-                        step *= 2.0;
-                    }
-                }
-                Err(e) => {
-                    if let SolveError::NotConverged { iterations, .. } = e {
-                        total.iterations += iterations;
-                    }
-                    failures += 1;
-                    step /= 2.0;
-                    if step < 1.0 / 64.0 || failures > 12 {
-                        return Err(match e {
-                            SolveError::NotConverged {
-                                residual_norm,
-                                tolerance,
-                                ..
-                            } => SolveError::NotConverged {
-                                iterations: total.iterations,
-                                residual_norm,
-                                tolerance,
-                                reason: "continuation from the home configuration stalled",
-                            },
-                            other => other,
-                        });
-                    }
-                }
-            }
-        }
+        let pretension = CONTINUATION_PRETENSION.max(self.model.pretension);
+        let start = home_guess(
+            &self.model.with_homotopy(0.0, pretension),
+            &home,
+            &zero,
+            &Wrench::default(),
+        );
+        self.ramp(start, wrench, target, Loads::FromUnloaded { pretension })
     }
 
     /// Newton from `guess` on `problem` with the solver's model.

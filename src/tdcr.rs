@@ -158,15 +158,9 @@ impl TdcrSolver {
             Some(s) if s.gammas.len() == n_gamma => pack(s),
             _ => pack(&cold_guess(&self.model, control, wrench)),
         };
-        let mut system = TdcrSystem {
-            model: &self.model,
-            leg: &mut self.leg,
-            sens: &mut self.sens,
-            control,
-            wrench,
-            end: LegEnd::zeros(),
-        };
         let scratch = &mut self.newton[usize::from(displacement)];
+        let mut system =
+            TdcrSystem::new(&self.model, &mut self.leg, &mut self.sens, control, wrench);
         let report = newton::solve(&mut system, &mut x, &self.settings, scratch)?;
         let state = unpack(&x, n_gamma);
         let tensions: Vec<f64> = match control {
@@ -214,14 +208,8 @@ impl TdcrSolver {
         let n = x.len();
         let mut r = DVector::zeros(n);
         let mut j = DMatrix::zeros(n, n);
-        let mut system = TdcrSystem {
-            model: &self.model,
-            leg: &mut self.leg,
-            sens: &mut self.sens,
-            control,
-            wrench,
-            end: LegEnd::zeros(),
-        };
+        let mut system =
+            TdcrSystem::new(&self.model, &mut self.leg, &mut self.sens, control, wrench);
         system.residual_and_jacobian(&x, &mut r, &mut j)?;
         Ok((r, j))
     }
@@ -239,14 +227,8 @@ impl TdcrSolver {
         self.check_control(control, wrench)?;
         let x = pack(state);
         let mut r = DVector::zeros(x.len());
-        let mut system = TdcrSystem {
-            model: &self.model,
-            leg: &mut self.leg,
-            sens: &mut self.sens,
-            control,
-            wrench,
-            end: LegEnd::zeros(),
-        };
+        let mut system =
+            TdcrSystem::new(&self.model, &mut self.leg, &mut self.sens, control, wrench);
         system.residual(&x, &mut r)?;
         Ok(r)
     }
@@ -379,7 +361,24 @@ struct TdcrSystem<'a> {
     end: LegEnd,
 }
 
-impl TdcrSystem<'_> {
+impl<'a> TdcrSystem<'a> {
+    fn new(
+        model: &'a LegModel,
+        leg: &'a mut LegScratch,
+        sens: &'a mut LegSensitivities,
+        control: &'a TendonControl,
+        wrench: &'a TipWrench,
+    ) -> Self {
+        Self {
+            model,
+            leg,
+            sens,
+            control,
+            wrench,
+            end: LegEnd::zeros(),
+        }
+    }
+
     fn n_gamma(&self) -> usize {
         match self.control {
             TendonControl::Tension(_) => 0,
