@@ -77,8 +77,6 @@ pub struct Solution {
     pub state: RobotState,
     /// Newton work and final residual norm.
     pub report: NewtonReport,
-    /// ‖b‖₂ after each iteration, starting with the initial guess.
-    pub residual_history: Vec<f64>,
     /// Wall time of the solve [µs].
     pub solve_time_us: f64,
 }
@@ -767,7 +765,8 @@ impl Solver {
         Ok((state, report))
     }
 
-    /// ‖b‖₂ after each iteration of the last solve.
+    /// ‖b‖₂ after each iteration of the last Newton run (the last continuation step when
+    /// a solve needed continuation).
     pub fn residual_history(&self) -> &[f64] {
         self.newton.residual_history()
     }
@@ -837,7 +836,6 @@ fn finish(
     Ok(Solution {
         state,
         report,
-        residual_history: Vec::new(),
         solve_time_us: start.elapsed().as_secs_f64() * 1e6,
     })
 }
