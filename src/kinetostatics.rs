@@ -109,6 +109,9 @@ pub struct Solver {
     pub jacobian: JacobianMethod,
 }
 
+/// Tendon crossings earlier than this fraction of a Newton step do not limit it.
+const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
+
 /// First continuation step in λ.
 const CONTINUATION_FIRST_STEP: f64 = 0.25;
 /// Pretension [N] of the continuation's start: every tendon taut (γ = 1, far from the
@@ -987,6 +990,29 @@ impl NonlinearSystem for ShootingSystem<'_> {
 
     fn row_weights(&self, w: &mut DVector<f64>) {
         row_weights(self.model, w);
+    }
+
+    fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
+        // Stop at the first tendon that would cross between taut and slack (ζ = 0, the
+        // kink of the piecewise-linear variable): semismooth Newton otherwise cycles there.
+        // A crossing within the first 5 % of the step is let through (the tendon is at the
+        // kink already; stopping would stall the trust region).
+        let head = self.head();
+        let (nu, nt) = (self.model.n_leg_unknowns(), self.model.n_tendons());
+        let mut limit: f64 = 1.0;
+        for leg in 0..3 {
+            for k in 0..nt {
+                let i = head + leg * nu + k;
+                let (z, dz) = (x[i], step[i]);
+                if (z + dz) * z < 0.0 {
+                    let at = -z / dz;
+                    if at >= STEP_LIMIT_MIN_FRACTION {
+                        limit = limit.min(at);
+                    }
+                }
+            }
+        }
+        limit
     }
 
     fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {

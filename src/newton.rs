@@ -43,6 +43,13 @@ pub trait NonlinearSystem {
     /// Weight of each row in the merit function (about 1 / its typical size).
     fn row_weights(&self, w: &mut DVector<f64>);
 
+    /// The largest fraction α ∈ (0, 1] of `step` to take from `x` (default 1): a system
+    /// with kinks (piecewise-linear unknowns) stops a step where it would cross one.
+    fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
+        let _ = (x, step);
+        1.0
+    }
+
     /// The point reached from `x` by the step `step` expressed in the Jacobian's local
     /// coordinates (default: `x + step`; a rotation unknown overrides this to compose
     /// rotations).
@@ -293,6 +300,10 @@ pub fn solve<S: NonlinearSystem>(
                 for j in 0..n {
                     sc.step[j] = sc.work[j] + beta * (sc.newton_step[j] - sc.work[j]);
                 }
+            }
+            let alpha = system.step_limit(x, &sc.step);
+            if alpha < 1.0 {
+                sc.step.scale_mut(alpha);
             }
             let step_len = scaled_norm(&sc.step, &sc.diag);
             // Predicted reduction of the weighted merit from the linear model.
