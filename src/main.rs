@@ -80,6 +80,31 @@ enum JacobianArg {
     FdCentral,
 }
 
+/// Newton options shared by every solving subcommand.
+#[derive(clap::Args)]
+struct NewtonArgs {
+    /// Newton tolerance on the Euclidean norm of the SI residual.
+    #[arg(long, default_value_t = 1e-10)]
+    tolerance: f64,
+    /// Most Newton iterations.
+    #[arg(long, default_value_t = 60)]
+    max_iterations: usize,
+}
+
+impl NewtonArgs {
+    /// Checks the values and writes them into `settings`.
+    fn apply(&self, settings: &mut tdpcr::newton::NewtonSettings) -> Result<(), Error> {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            let mut v = tdpcr::error::Violations::default();
+            v.push("--tolerance", self.tolerance, "> 0");
+            return Err(Error::Input(v));
+        }
+        settings.tolerance = self.tolerance;
+        settings.max_iterations = self.max_iterations;
+        Ok(())
+    }
+}
+
 /// Options shared by `fk` and `ik`.
 #[derive(clap::Args)]
 struct SolveArgs {
@@ -93,12 +118,8 @@ struct SolveArgs {
     /// Jacobian used by Newton.
     #[arg(long, value_enum, default_value_t)]
     jacobian: JacobianArg,
-    /// Newton tolerance on the Euclidean norm of the SI residual.
-    #[arg(long, default_value_t = 1e-10)]
-    tolerance: f64,
-    /// Most Newton iterations.
-    #[arg(long, default_value_t = 60)]
-    max_iterations: usize,
+    #[command(flatten)]
+    newton: NewtonArgs,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -154,12 +175,8 @@ struct TdcrArgs {
     /// Tip moment MX,MY,MZ [N·m], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_moment: Option<Vector3<f64>>,
-    /// Newton tolerance on the Euclidean norm of the SI residual.
-    #[arg(long, default_value_t = 1e-10)]
-    tolerance: f64,
-    /// Most Newton iterations.
-    #[arg(long, default_value_t = 60)]
-    max_iterations: usize,
+    #[command(flatten)]
+    newton: NewtonArgs,
     /// Output format.
     #[arg(long, value_enum, default_value_t)]
     format: Format,
@@ -227,13 +244,7 @@ fn run_tdcr(args: &TdcrArgs) -> Result<(), Error> {
         moment: args.tip_moment.unwrap_or_default(),
     };
     let mut solver = TdcrSolver::new(&robot);
-    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
-        let mut v = tdpcr::error::Violations::default();
-        v.push("--tolerance", args.tolerance, "> 0");
-        return Err(Error::Input(v));
-    }
-    solver.settings.tolerance = args.tolerance;
-    solver.settings.max_iterations = args.max_iterations;
+    args.newton.apply(&mut solver.settings)?;
     let sol = solver.solve(&control, &wrench, None)?;
     let out = TdcrOutput {
         tip_position: sol.tip.position.into(),
@@ -323,9 +334,6 @@ fn prepare(
             Wrench::default()
         }
     };
-    if !(args.tolerance.is_finite() && args.tolerance > 0.0) {
-        v.push("--tolerance", args.tolerance, "> 0");
-    }
     let init = match &args.init {
         None => None,
         Some(path) => match read_state(path) {
@@ -340,8 +348,7 @@ fn prepare(
         return Err(Error::Input(v));
     }
     let mut solver = Solver::new(&design);
-    solver.settings.tolerance = args.tolerance;
-    solver.settings.max_iterations = args.max_iterations;
+    args.newton.apply(&mut solver.settings)?;
     solver.jacobian = match args.jacobian {
         JacobianArg::Exact => JacobianMethod::Exact,
         JacobianArg::Fd => JacobianMethod::FiniteDifference(FiniteDifference::Forward),
@@ -525,7 +532,7 @@ fn run_trajectory(args: &TrajectoryArgs) -> Result<(), Error> {
         return Err(Error::Solve(tdpcr::SolveError::NotConverged {
             iterations: 0,
             residual_norm: f64::NAN,
-            tolerance: args.solve.tolerance,
+            tolerance: args.solve.newton.tolerance,
             reason: "some trajectory steps failed (see converged = false)",
         }));
     }
