@@ -4,13 +4,13 @@
 //! it affects).
 //!
 //! Row order (30 rows for the 6-DoF design, 36 for the 9-DoF design):
-//! 0..3 platform force balance Σ F_i − f_ext [N]; 3..6 platform moment balance
-//! Σ (R_ee ᵇp_ci) × F_i − l_ext [N·m]; then per leg i, at 6 + i (6 + n_t):
+//! 0..3 platform force balance Σ F_i − f_ext \[N\]; 3..6 platform moment balance
+//! Σ (R_ee ᵇp_ci) × F_i − l_ext \[N·m\]; then per leg i, at 6 + i (6 + n_t):
 //! coupling position p_ee + R_ee ᵇp_ci − p_i(L) − R_i(L) L_c e_z (3, m), zero joint moment
 //! m_i⁺(L) + c_i × F_i (3, N·m), tendon lengths (n_t, m). F_i = n_i⁺(L) is the force the
 //! leg transmits beyond its tip.
 //!
-//! Column order: x_ee = (δp, δθ) with R_ee ← exp(δθ^) R_ee; q per leg [q_b per pair, q_t];
+//! Column order: x_ee = (δp, δθ) with R_ee ← exp(δθ^) R_ee; q per leg \[q_b per pair, q_t\];
 //! w = (f_ext, l_ext); y_u per leg [γ (n_t), u(0) (3), v(0) (3)].
 
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -31,7 +31,7 @@ use crate::rod::{
 pub struct BoundaryPoint<'a> {
     /// Platform pose x_ee.
     pub pose: &'a Pose,
-    /// Actuation q (6 or 9 values) [m].
+    /// Actuation q (6 or 9 values) \[m\].
     pub q: &'a [f64],
     /// Total external wrench w on the platform.
     pub wrench: &'a Wrench,
@@ -319,19 +319,19 @@ fn fill_b_w(b_w: &mut DMatrix<f64>) {
 /// Finite-difference steps of the baseline, per kind of unknown: (forward, central).
 /// Chosen for the reference design's scales: strains v are ~1e4 times stiffer than u.
 pub mod fd_steps {
-    /// Platform position [m].
+    /// Platform position \[m\].
     pub const POSITION: (f64, f64) = (1e-8, 1e-6);
-    /// Platform rotation [rad].
+    /// Platform rotation \[rad\].
     pub const ROTATION: (f64, f64) = (1e-8, 1e-6);
-    /// Actuation [m].
+    /// Actuation \[m\].
     pub const ACTUATION: (f64, f64) = (1e-8, 1e-6);
-    /// Wrench [N, N·m].
+    /// Wrench \[N, N·m\].
     pub const WRENCH: (f64, f64) = (1e-6, 1e-4);
-    /// γ [√N], relative to max(1, |γ|).
+    /// γ \[√N\], relative to max(1, |γ|).
     pub const GAMMA: (f64, f64) = (1e-7, 1e-5);
-    /// u(0) [1/m], relative to max(1, |u|).
+    /// u(0) \[1/m\], relative to max(1, |u|).
     pub const BENDING_STRAIN: (f64, f64) = (1e-7, 1e-4);
-    /// v(0) [–].
+    /// v(0) \[–\].
     pub const SHEAR_STRAIN: (f64, f64) = (1e-10, 1e-8);
 }
 

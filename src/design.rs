@@ -24,11 +24,11 @@ pub const DEFAULT_INTEGRATION_STEPS: usize = 26;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tendon {
-    /// Angle about the rod axis, from the body x-axis [rad].
+    /// Angle about the rod axis, from the body x-axis \[rad\].
     pub angle: f64,
-    /// Distance from the backbone centre line [m].
+    /// Distance from the backbone centre line \[m\].
     pub offset: f64,
-    /// Arc length at which the tendon is attached to its last disk [m], in (0, L].
+    /// Arc length at which the tendon is attached to its last disk \[m\], in (0, L].
     pub end: f64,
 }
 
@@ -38,9 +38,9 @@ pub struct Tendon {
 pub struct Disks {
     /// Number of disks (≥ 1); disk j sits at s = j·L/count, j = 1..count.
     pub count: usize,
-    /// Mass of one disk [kg].
+    /// Mass of one disk \[kg\].
     pub mass: f64,
-    /// Disk radius [m], used for collision checks; tendon offsets must fit inside.
+    /// Disk radius \[m\], used for collision checks; tendon offsets must fit inside.
     pub radius: f64,
 }
 
@@ -48,19 +48,19 @@ pub struct Disks {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Leg {
-    /// Rod length L [m].
+    /// Rod length L \[m\].
     pub length: f64,
-    /// Radius of the solid round backbone [m].
+    /// Radius of the solid round backbone \[m\].
     pub backbone_radius: f64,
-    /// Young's modulus E [Pa].
+    /// Young's modulus E \[Pa\].
     pub youngs_modulus: f64,
     /// Poisson ratio ν, in (−1, 0.5); G = E / (2(1 + ν)).
     pub poisson_ratio: f64,
-    /// Backbone mass [kg] (spread uniformly over L with the disk masses).
+    /// Backbone mass \[kg\] (spread uniformly over L with the disk masses).
     pub backbone_mass: f64,
     /// Spacer disks.
     pub disks: Disks,
-    /// Axial stiffness of each tendon (EA)_t [N].
+    /// Axial stiffness of each tendon (EA)_t \[N\].
     pub tendon_stiffness: f64,
     /// The tendons, in the order used for tensions and displacements.
     pub tendons: Vec<Tendon>,
@@ -78,7 +78,7 @@ fn default_integration_steps() -> usize {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tdcr {
-    /// Gravitational acceleration in the world frame [m/s²].
+    /// Gravitational acceleration in the world frame \[m/s²\].
     pub gravity: (f64, f64, f64),
     /// The robot.
     pub leg: Leg,
@@ -88,9 +88,9 @@ pub struct Tdcr {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Platform {
-    /// Side length L_a of the equilateral coupling triangle [m].
+    /// Side length L_a of the equilateral coupling triangle \[m\].
     pub side_length: f64,
-    /// Platform mass m_p [kg].
+    /// Platform mass m_p \[kg\].
     pub mass: f64,
 }
 
@@ -98,9 +98,9 @@ pub struct Platform {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ActuationLimits {
-    /// Largest |q_b| per tendon pair [m].
+    /// Largest |q_b| per tendon pair \[m\].
     pub tendon_displacement: f64,
-    /// Largest |q_t| per base [m].
+    /// Largest |q_t| per base \[m\].
     pub base_translation: f64,
 }
 
@@ -111,26 +111,26 @@ pub struct ActuationLimits {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Tdpcr {
-    /// Gravitational acceleration in the world frame [m/s²].
+    /// Gravitational acceleration in the world frame \[m/s²\].
     pub gravity: (f64, f64, f64),
     /// The leg used three times.
     pub leg: Leg,
     /// The platform.
     pub platform: Platform,
-    /// Rigid link L_c from rod tip to spherical joint, along the tip tangent [m].
+    /// Rigid link L_c from rod tip to spherical joint, along the tip tangent \[m\].
     pub coupling_offset: f64,
-    /// Angle α between each leg and the platform plane [rad].
+    /// Angle α between each leg and the platform plane \[rad\].
     pub alpha: f64,
-    /// Rotation β of each leg about world z, away from pointing at the centre [rad].
+    /// Rotation β of each leg about world z, away from pointing at the centre \[rad\].
     pub beta: f64,
-    /// Optional roll ψ of each base frame about its leg tangent [rad] (default 0).
+    /// Optional roll ψ of each base frame about its leg tangent \[rad\] (default 0).
     #[serde(default)]
     pub psi: f64,
-    /// Optional angles θ_i of the coupling points in the platform frame [rad]
+    /// Optional angles θ_i of the coupling points in the platform frame \[rad\]
     /// (default 90°, 210°, 330°).
     #[serde(default = "default_coupling_angles")]
     pub coupling_angles: (f64, f64, f64),
-    /// Tension τ_pre of every tendon in the unloaded straight home configuration [N].
+    /// Tension τ_pre of every tendon in the unloaded straight home configuration \[N\].
     pub pretension: f64,
     /// Actuation limits.
     pub actuation_limits: ActuationLimits,

@@ -37,11 +37,11 @@ pub struct JacobianCheck {
     pub solved: usize,
     /// Worst relative error per block against central differences.
     pub max_rel_error: BlockErrors,
-    /// Mean time of one exact Jacobian (all four blocks) [µs].
+    /// Mean time of one exact Jacobian (all four blocks) \[µs\].
     pub time_exact_us: f64,
-    /// Mean time of one forward-difference Jacobian [µs].
+    /// Mean time of one forward-difference Jacobian \[µs\].
     pub time_fd_forward_us: f64,
-    /// Mean time of one central-difference Jacobian [µs].
+    /// Mean time of one central-difference Jacobian \[µs\].
     pub time_fd_central_us: f64,
 }
 

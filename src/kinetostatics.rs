@@ -3,9 +3,9 @@
 //! baseline), globalized by the dogleg trust region of [`crate::newton`].
 //!
 //! - FK: given q and the wrench, unknowns [p_ee (3), θ_ee (3), y_u (3 (6 + n_t))];
-//!   Jacobian [B_x B_u]. Rotation steps compose: R ← exp(δθ^) R.
-//! - IK (6-DoF design): given the pose and the wrench, unknowns [q (6), y_u];
-//!   Jacobian [B_q B_u].
+//!   Jacobian \[B_x B_u\]. Rotation steps compose: R ← exp(δθ^) R.
+//! - IK (6-DoF design): given the pose and the wrench, unknowns \[q (6), y_u\];
+//!   Jacobian \[B_q B_u\].
 //!
 //! A cold start uses the straight home guess of MODEL.md §9 (legs straight, strains
 //! consistent with tensions from a constant-curvature estimate, γ never 0); if that fails
@@ -50,11 +50,11 @@ pub enum JacobianMethod {
 /// A solved (or guessed) configuration; serializes to JSON and is accepted as a warm start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotState {
-    /// Platform position p_ee [m].
+    /// Platform position p_ee \[m\].
     pub position: [f64; 3],
-    /// Platform orientation as a rotation vector (axis × angle) [rad], world frame.
+    /// Platform orientation as a rotation vector (axis × angle) \[rad\], world frame.
     pub rotvec: [f64; 3],
-    /// Actuation q (per leg [q_b per pair, q_t]) [m].
+    /// Actuation q (per leg \[q_b per pair, q_t\]) \[m\].
     pub q: Vec<f64>,
     /// Leg unknowns y_u (per leg [γ (n_t), u(0) (3), v(0) (3)]).
     pub y_u: Vec<f64>,
@@ -77,12 +77,12 @@ pub struct Solution {
     pub state: RobotState,
     /// Newton work and final residual norm.
     pub report: NewtonReport,
-    /// Wall time of the solve [µs].
+    /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
 }
 
 impl Solution {
-    /// Tension of every tendon [N], per leg.
+    /// Tension of every tendon \[N\], per leg.
     pub fn tensions(&self, model: &Model) -> Vec<Vec<f64>> {
         let nu = model.n_leg_unknowns();
         (0..3)
@@ -114,7 +114,7 @@ const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
 
 /// First continuation step in λ.
 const CONTINUATION_FIRST_STEP: f64 = 0.25;
-/// Pretension [N] of the continuation's start: every tendon taut (γ = 1, far from the
+/// Pretension \[N\] of the continuation's start: every tendon taut (γ = 1, far from the
 /// γ = 0 trap of MODEL.md §9), relaxed to the design's pretension as λ → 1.
 const CONTINUATION_PRETENSION: f64 = 1.0;
 /// Newton iterations allowed per continuation step before the step is halved.
@@ -125,7 +125,7 @@ const CONTINUATION_MAX_ITERATIONS: usize = 10;
 enum Loads {
     /// The full loads throughout.
     Full,
-    /// From zero to full with λ, with an auxiliary `pretension` [N] relaxing to the design's.
+    /// From zero to full with λ, with an auxiliary `pretension` \[N\] relaxing to the design's.
     FromUnloaded { pretension: f64 },
 }
 

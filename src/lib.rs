@@ -9,7 +9,7 @@
 //! Entry points:
 //! - [`design`]: the RON design files ([`Tdcr`], [`Tdpcr`], [`Leg`]) and their validation;
 //! - [`rod`]: one leg, integrated with or without exact sensitivities;
-//! - [`tdcr`]: the single-TDCR solver ([`tdcr::solve_tdcr`]), tension or displacement control.
+//! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control.
 //!
 //! ```
 //! use tdpcr::{Tdcr, tdcr::{TdcrSolver, TendonControl, TipWrench}};

@@ -43,10 +43,10 @@ enum Command {
 struct TrajectoryArgs {
     /// Design file (RON, `Tdpcr(...)`).
     design: PathBuf,
-    /// CSV of poses, columns x,y,z,rx,ry,rz [m, rad] (IK; 6-DoF design).
+    /// CSV of poses, columns x,y,z,rx,ry,rz \[m, rad\] (IK; 6-DoF design).
     #[arg(long, conflicts_with = "fk", required_unless_present = "fk")]
     ik: Option<PathBuf>,
-    /// CSV of actuations, columns q1..qn [m] (FK).
+    /// CSV of actuations, columns q1..qn \[m\] (FK).
     #[arg(long)]
     fk: Option<PathBuf>,
     #[command(flatten)]
@@ -108,7 +108,7 @@ impl NewtonArgs {
 /// Options shared by `fk` and `ik`.
 #[derive(clap::Args)]
 struct SolveArgs {
-    /// Extra wrench FX,FY,FZ,MX,MY,MZ [N, N·m] on the platform centre, world frame, added
+    /// Extra wrench FX,FY,FZ,MX,MY,MZ \[N, N·m\] on the platform centre, world frame, added
     /// to the platform's weight.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     wrench: Option<Values>,
@@ -129,7 +129,7 @@ struct SolveArgs {
 struct FkArgs {
     /// Design file (RON, `Tdpcr(...)`), e.g. designs/lilge2022.ron.
     design: PathBuf,
-    /// Actuation q [m]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
+    /// Actuation q \[m\]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     q: Values,
     #[command(flatten)]
@@ -140,10 +140,10 @@ struct FkArgs {
 struct IkArgs {
     /// Design file (RON, `Tdpcr(...)`).
     design: PathBuf,
-    /// Platform position X,Y,Z [m], world frame.
+    /// Platform position X,Y,Z \[m\], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     position: Vector3<f64>,
-    /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) [rad], world frame.
+    /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) \[rad\], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     rotvec: Option<Vector3<f64>>,
     #[command(flatten)]
@@ -163,16 +163,16 @@ enum Format {
 struct TdcrArgs {
     /// Robot file (RON, `Tdcr(...)`), e.g. designs/tdcr_one_segment.ron.
     robot: PathBuf,
-    /// Tendon tensions [N], one per tendon in file order, comma-separated.
+    /// Tendon tensions \[N\], one per tendon in file order, comma-separated.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true, conflicts_with = "displacements", required_unless_present = "displacements")]
     tensions: Option<Values>,
-    /// Tendon length changes Δℓ [m] (negative = pulled), one per tendon, comma-separated.
+    /// Tendon length changes Δℓ \[m\] (negative = pulled), one per tendon, comma-separated.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     displacements: Option<Values>,
-    /// Tip force FX,FY,FZ [N], world frame.
+    /// Tip force FX,FY,FZ \[N\], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_force: Option<Vector3<f64>>,
-    /// Tip moment MX,MY,MZ [N·m], world frame.
+    /// Tip moment MX,MY,MZ \[N·m\], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_moment: Option<Vector3<f64>>,
     #[command(flatten)]
@@ -226,7 +226,7 @@ struct TdcrOutput {
     iterations: usize,
     residual_evaluations: usize,
     residual_norm: f64,
-    /// Backbone positions at the disks [m], base excluded.
+    /// Backbone positions at the disks \[m\], base excluded.
     shape: Vec<[f64; 3]>,
     shape_arcs: Vec<f64>,
     state: TdcrState,
@@ -295,7 +295,7 @@ struct ParallelOutput {
     rotation: [[f64; 3]; 3],
     rotvec: [f64; 3],
     q: Vec<f64>,
-    /// Tendon tensions per leg [N].
+    /// Tendon tensions per leg \[N\].
     tensions: Vec<Vec<f64>>,
     iterations: usize,
     residual_evaluations: usize,

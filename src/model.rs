@@ -17,21 +17,21 @@ pub struct Model {
     pub bases: [Frame; 3],
     /// Unit leg tangent t_i (base z-axis, from base towards platform).
     pub tangents: [Vector3<f64>; 3],
-    /// Coupling points ᵇp_ci in the platform frame [m].
+    /// Coupling points ᵇp_ci in the platform frame \[m\].
     pub coupling_points: [Vector3<f64>; 3],
-    /// L_c [m].
+    /// L_c \[m\].
     pub coupling_offset: f64,
-    /// Tendon displacement offset of the pretension, δ_pre [m].
+    /// Tendon displacement offset of the pretension, δ_pre \[m\].
     pub pretension_offset: f64,
-    /// Pretension τ_pre [N].
+    /// Pretension τ_pre \[N\].
     pub pretension: f64,
-    /// Platform weight m_p g (world frame) [N].
+    /// Platform weight m_p g (world frame) \[N\].
     pub platform_weight: Vector3<f64>,
     /// Actuation limits.
     pub limits: ActuationLimits,
 }
 
-/// A platform pose: position [m] and rotation (platform to world).
+/// A platform pose: position \[m\] and rotation (platform to world).
 pub type Pose = Frame;
 
 impl Model {
@@ -82,7 +82,7 @@ impl Model {
     }
 
     /// A copy with every gravity load (legs and platform) scaled by `scale` and the tendon
-    /// pretension set to `pretension` [N] (for continuation).
+    /// pretension set to `pretension` \[N\] (for continuation).
     pub fn with_homotopy(&self, scale: f64, pretension: f64) -> Self {
         let mut m = self.clone();
         m.leg.weight_per_length *= scale;
@@ -97,7 +97,7 @@ impl Model {
         self.leg.n_tendons
     }
 
-    /// Length of the actuation vector q: per leg [q_b (per pair), q_t].
+    /// Length of the actuation vector q: per leg \[q_b (per pair), q_t\].
     pub fn n_actuators(&self) -> usize {
         3 * (self.pairs + 1)
     }

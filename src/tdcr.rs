@@ -21,9 +21,9 @@ use crate::rod::{
 /// How the tendons are driven (one value per tendon, in file order).
 #[derive(Debug, Clone, PartialEq)]
 pub enum TendonControl {
-    /// Given tensions τ_k [N], each ≥ 0.
+    /// Given tensions τ_k \[N\], each ≥ 0.
     Tension(Vec<f64>),
-    /// Given length changes Δℓ_k [m] (negative = pulled); tensions are solved for.
+    /// Given length changes Δℓ_k \[m\] (negative = pulled); tensions are solved for.
     Displacement(Vec<f64>),
 }
 
@@ -33,9 +33,9 @@ pub type TipWrench = crate::rod::Wrench;
 /// The unknowns of a solved robot; pass back as a warm start.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TdcrState {
-    /// u(0) [1/m].
+    /// u(0) \[1/m\].
     pub u0: [f64; 3],
-    /// v(0) [–].
+    /// v(0) \[–\].
     pub v0: [f64; 3],
     /// γ_k per tendon (τ = γ² if γ ≥ 0, slack Θ = γ² otherwise); empty in tension control.
     pub gammas: Vec<f64>,
@@ -46,9 +46,9 @@ pub struct TdcrState {
 pub struct TdcrSolution {
     /// Tip frame.
     pub tip: Frame,
-    /// Tension of each tendon [N].
+    /// Tension of each tendon \[N\].
     pub tensions: Vec<f64>,
-    /// Slack Θ_k of each tendon [m] (0 when taut; always 0 in tension control).
+    /// Slack Θ_k of each tendon \[m\] (0 when taut; always 0 in tension control).
     pub slacks: Vec<f64>,
     /// The solved unknowns.
     pub state: TdcrState,

@@ -27,17 +27,17 @@ pub struct StepResult {
     pub step: usize,
     /// Whether Newton converged.
     pub converged: bool,
-    /// Platform position [m] (of the solution, or of the target if not converged).
+    /// Platform position \[m\] (of the solution, or of the target if not converged).
     pub position: [f64; 3],
-    /// Platform rotation vector [rad].
+    /// Platform rotation vector \[rad\].
     pub rotvec: [f64; 3],
-    /// Actuation [m].
+    /// Actuation \[m\].
     pub q: Vec<f64>,
     /// Newton iterations.
     pub iterations: usize,
     /// Final residual norm (NaN-free: the last norm reached when not converged).
     pub residual_norm: f64,
-    /// Wall time of the solve [µs].
+    /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
 }
 
@@ -46,11 +46,11 @@ pub struct StepResult {
 pub struct Stats {
     /// Number of steps.
     pub steps: usize,
-    /// Median solve time per step [µs].
+    /// Median solve time per step \[µs\].
     pub median_us: f64,
-    /// Mean solve time per step [µs].
+    /// Mean solve time per step \[µs\].
     pub mean_us: f64,
-    /// Largest solve time of a step [µs].
+    /// Largest solve time of a step \[µs\].
     pub max_us: f64,
     /// Median Newton iterations per step.
     pub median_iterations: f64,

@@ -19,15 +19,15 @@ use crate::rod::tangents::Tangents;
 /// The state at the tip of a leg (world frame, SI).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LegEnd {
-    /// Tip position p(L) [m].
+    /// Tip position p(L) \[m\].
     pub p: Vector3<f64>,
     /// Tip orientation R(L).
     pub r: Matrix3<f64>,
-    /// Force transmitted beyond the tip, n(L) − Σ f_t,k [N].
+    /// Force transmitted beyond the tip, n(L) − Σ f_t,k \[N\].
     pub n: Vector3<f64>,
-    /// Moment transmitted beyond the tip, m(L) − Σ l_t,k [N·m].
+    /// Moment transmitted beyond the tip, m(L) − Σ l_t,k \[N·m\].
     pub m: Vector3<f64>,
-    /// Path length of each tendon from the base to its end, s_k(end_k) [m].
+    /// Path length of each tendon from the base to its end, s_k(end_k) \[m\].
     pub lengths: [f64; MAX_TENDONS],
 }
 
@@ -48,7 +48,7 @@ impl LegEnd {
 #[derive(Debug, Clone)]
 pub struct LegSensitivities {
     directions: usize,
-    /// `d[j]` = ∂(tip state)/∂(direction j).
+    /// `d\[j\]` = ∂(tip state)/∂(direction j).
     pub d: [LegEnd; MAX_DIRECTIONS],
 }
 
@@ -78,9 +78,9 @@ impl LegSensitivities {
 /// Backbone frames at the base and at every disk, for plots and collision checks.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LegShape {
-    /// Arc lengths [m]: 0, then each disk.
+    /// Arc lengths \[m\]: 0, then each disk.
     pub arcs: Vec<f64>,
-    /// Backbone positions [m].
+    /// Backbone positions \[m\].
     pub positions: Vec<Vector3<f64>>,
     /// Backbone orientations.
     pub rotations: Vec<Matrix3<f64>>,
@@ -152,11 +152,11 @@ impl Default for LegScratch {
 pub struct LegStart {
     /// Base frame (p(0), R(0)).
     pub base: Frame,
-    /// Bending/torsion strain at the base u(0) [1/m].
+    /// Bending/torsion strain at the base u(0) \[1/m\].
     pub u0: Vector3<f64>,
-    /// Shear/extension strain at the base v(0) [–].
+    /// Shear/extension strain at the base v(0) \[–\].
     pub v0: Vector3<f64>,
-    /// Tendon tensions τ_k [N] (≥ 0; entries beyond n_t ignored).
+    /// Tendon tensions τ_k \[N\] (≥ 0; entries beyond n_t ignored).
     pub tensions: [f64; MAX_TENDONS],
 }
 

@@ -1,11 +1,11 @@
 //! The symmetric positive definite 6×6 strain system of eq. (5), solved by its 3×3 block
-//! structure: M = [A Bᵀ; B C] with A the shear/extension block, C the bending/torsion
+//! structure: M = \[A Bᵀ; B C\] with A the shear/extension block, C the bending/torsion
 //! block. A⁻¹ and the Schur complement S = C − B A⁻¹ Bᵀ are inverted in closed form
 //! (fixed-size code, no loops: this is the rod's innermost kernel).
 
 use nalgebra::{Matrix3, Vector3};
 
-/// A factored 6×6 block matrix [A Bᵀ; B C].
+/// A factored 6×6 block matrix \[A Bᵀ; B C\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ldlt6 {
     a_inv: Matrix3<f64>,
@@ -26,7 +26,7 @@ impl Ldlt6 {
         }
     }
 
-    /// Factors [A Bᵀ; B C] (A, C symmetric). `None` unless A and the Schur complement are
+    /// Factors \[A Bᵀ; B C\] (A, C symmetric). `None` unless A and the Schur complement are
     /// invertible with finite inverses (they are positive definite for τ ≥ 0).
     #[inline]
     pub fn factor_blocks(a: &Matrix3<f64>, b: &Matrix3<f64>, c: &Matrix3<f64>) -> Option<Self> {
@@ -48,7 +48,7 @@ impl Ldlt6 {
         })
     }
 
-    /// Solves M [x1; x2] = [b1; b2].
+    /// Solves M \[x1; x2\] = \[b1; b2\].
     #[inline]
     pub fn solve_blocks(
         &self,

@@ -4,10 +4,10 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::{Leg, MAX_TENDONS};
 
-/// A rigid frame: position [m] and rotation (columns = frame axes in the world frame).
+/// A rigid frame: position \[m\] and rotation (columns = frame axes in the world frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
-    /// Origin in the world frame [m].
+    /// Origin in the world frame \[m\].
     pub position: Vector3<f64>,
     /// Orientation, body-to-world.
     pub rotation: Matrix3<f64>,
@@ -23,21 +23,21 @@ impl Frame {
     }
 }
 
-/// A wrench (force [N], moment [N·m]), world frame.
+/// A wrench (force \[N\], moment \[N·m\]), world frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Wrench {
-    /// Force [N].
+    /// Force \[N\].
     pub force: Vector3<f64>,
-    /// Moment [N·m].
+    /// Moment \[N·m\].
     pub moment: Vector3<f64>,
 }
 
 /// A piece of the leg between two consecutive breakpoints (disks or tendon ends).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interval {
-    /// Arc length at the start [m].
+    /// Arc length at the start \[m\].
     pub start: f64,
-    /// Arc length at the end [m].
+    /// Arc length at the end \[m\].
     pub end: f64,
     /// Fixed RK4 steps on this interval.
     pub steps: usize,
@@ -52,36 +52,36 @@ pub struct Interval {
 /// One leg's stiffness, tendon routing and integration grid (MODEL.md §2), SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LegModel {
-    /// Rod length L [m].
+    /// Rod length L \[m\].
     pub length: f64,
-    /// Diagonal of K_se = diag(G A, G A, E A) [N].
+    /// Diagonal of K_se = diag(G A, G A, E A) \[N\].
     pub k_se: Vector3<f64>,
-    /// Diagonal of K_bt = diag(E I, E I, G J) [N·m²].
+    /// Diagonal of K_bt = diag(E I, E I, G J) \[N·m²\].
     pub k_bt: Vector3<f64>,
     /// Number of tendons n_t.
     pub n_tendons: usize,
-    /// Tendon offsets r_k in the body frame [m] (z = 0); entries beyond n_t are zero.
+    /// Tendon offsets r_k in the body frame \[m\] (z = 0); entries beyond n_t are zero.
     pub tendon_offsets: [Vector3<f64>; MAX_TENDONS],
     /// r̂_k, the skew matrices of the offsets.
     pub tendon_hats: [Matrix3<f64>; MAX_TENDONS],
     /// r̂_k r̂_kᵀ = |r_k|² I − r_k r_kᵀ.
     pub tendon_hat_squares: [Matrix3<f64>; MAX_TENDONS],
-    /// Arc length where each tendon ends [m].
+    /// Arc length where each tendon ends \[m\].
     pub tendon_ends: [f64; MAX_TENDONS],
-    /// Tendon axial stiffness (EA)_t [N].
+    /// Tendon axial stiffness (EA)_t \[N\].
     pub tendon_stiffness: f64,
-    /// Distributed weight f (world frame) [N/m].
+    /// Distributed weight f (world frame) \[N/m\].
     pub weight_per_length: Vector3<f64>,
     /// Integration grid.
     pub intervals: Vec<Interval>,
     /// Number of disks.
     pub n_disks: usize,
-    /// Disk radius [m].
+    /// Disk radius \[m\].
     pub disk_radius: f64,
 }
 
 impl LegModel {
-    /// Derives the model from a leg that passed [`Leg::check`], under gravity `g` [m/s²].
+    /// Derives the model from a leg that passed [`Leg::check`], under gravity `g` \[m/s²\].
     pub fn new(leg: &Leg, gravity: Vector3<f64>) -> Self {
         let e = leg.youngs_modulus;
         let g_mod = e / (2.0 * (1.0 + leg.poisson_ratio));
@@ -115,17 +115,17 @@ impl LegModel {
         }
     }
 
-    /// Bending stiffness E I [N·m²].
+    /// Bending stiffness E I \[N·m²\].
     pub fn bending_stiffness(&self) -> f64 {
         self.k_bt.x
     }
 
-    /// Axial stiffness E A of the backbone [N].
+    /// Axial stiffness E A of the backbone \[N\].
     pub fn axial_stiffness(&self) -> f64 {
         self.k_se.z
     }
 
-    /// Largest tendon offset [m] (0 without tendons).
+    /// Largest tendon offset \[m\] (0 without tendons).
     pub fn max_offset(&self) -> f64 {
         self.tendon_offsets[..self.n_tendons]
             .iter()

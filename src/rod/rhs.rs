@@ -4,13 +4,13 @@
 //! Body-frame strains v, u are state variables. With tendon k at offset r_k, tension τ_k,
 //! path tangent w_k = v + u × r_k, ℓ_k = |w_k|, t_k = w_k / ℓ_k, the tendon matrix of eq. (5)
 //! is A_k = −τ_k ŵ_k² / ℓ_k³ = c_k (I − t_k t_kᵀ) with c_k = τ_k / ℓ_k, and the strain
-//! system reads, with P_k = [I, −r̂_k]:
+//! system reads, with P_k = \[I, −r̂_k\]:
 //!
-//! (K + Σ_k P_kᵀ A_k P_k) [v'; u'] = [−u × K_se(v − e_z) − Rᵀ f − Σ a_k;
+//! (K + Σ_k P_kᵀ A_k P_k) \[v'; u'\] = [−u × K_se(v − e_z) − Rᵀ f − Σ a_k;
 //!                                    −u × K_bt u − v × K_se(v − e_z) − Σ r_k × a_k],
 //!
 //! a_k = A_k (u × w_k). The matrix is symmetric positive definite for τ ≥ 0, so it is
-//! factored by Cholesky. Writing the system as g(state, x) = 0 with x = [v'; u'], the
+//! factored by Cholesky. Writing the system as g(state, x) = 0 with x = \[v'; u'\], the
 //! tangent is dx = −M⁻¹ ∂g/∂state · dstate, where every tendon enters through
 //! F_k = A_k y_k, y_k = v' + u' × r_k + u × w_k.
 
@@ -22,8 +22,8 @@ use crate::rod::ldlt6::Ldlt6;
 use crate::rod::model::LegModel;
 use crate::rod::tangents::{MAX_DIRECTIONS, Tangents};
 
-/// The rod state (or its derivative, or a tangent): position p [m], rotation R, strains
-/// v, u [–, 1/m] and tendon path lengths s_k [m].
+/// The rod state (or its derivative, or a tangent): position p \[m\], rotation R, strains
+/// v, u \[–, 1/m\] and tendon path lengths s_k \[m\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RodState {
     /// Backbone position p (world frame).
@@ -98,7 +98,7 @@ struct TendonPoint {
     w: Vector3<f64>,
     len: f64,
     t: Vector3<f64>,
-    /// c = τ / ℓ [N/m].
+    /// c = τ / ℓ \[N/m\].
     c: f64,
     /// y = v' + u' × r + u × w.
     y: Vector3<f64>,
@@ -115,9 +115,9 @@ pub struct Stage {
     r: Matrix3<f64>,
     v: Vector3<f64>,
     u: Vector3<f64>,
-    /// K_se (v − e_z): body-frame internal force [N].
+    /// K_se (v − e_z): body-frame internal force \[N\].
     n_body: Vector3<f64>,
-    /// K_bt u: body-frame internal moment [N·m].
+    /// K_bt u: body-frame internal moment \[N·m\].
     m_body: Vector3<f64>,
     factor: Ldlt6,
     tendons: [TendonPoint; MAX_TENDONS],
@@ -148,8 +148,8 @@ impl Stage {
         }
     }
 
-    /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` [N],
-    /// writing the derivative to `out` and keeping what [`Stage::tangent`] needs.
+    /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` \[N\],
+    /// writing the derivative to `out` and keeping what [`Stage::tangents`] needs.
     ///
     /// # Errors
     /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not

@@ -1,5 +1,5 @@
 //! Tangents of the rod state in all sensitivity directions at once, stored
-//! structure-of-arrays (`component[direction]`) so each operation is a loop over
+//! structure-of-arrays (`component\[direction\]`) so each operation is a loop over
 //! directions that the compiler vectorizes.
 
 use crate::design::MAX_TENDONS;
@@ -16,15 +16,15 @@ pub type Lanes = [f64; MAX_DIRECTIONS];
 pub struct Tangents {
     /// Number of directions in use.
     pub n: usize,
-    /// dp[c][j].
+    /// `dp[c][j]`.
     pub p: [Lanes; 3],
-    /// dR[3·col + row][j].
+    /// `dR[3·col + row][j]`.
     pub r: [Lanes; 9],
-    /// dv[c][j].
+    /// `dv[c][j]`.
     pub v: [Lanes; 3],
-    /// du[c][j].
+    /// `du[c][j]`.
     pub u: [Lanes; 3],
-    /// ds_k[j].
+    /// `ds_k[j]`.
     pub s: [Lanes; MAX_TENDONS],
 }
 

@@ -1,12 +1,12 @@
 //! Tension and slack from the unknown γ (MODEL.md eqs. 6–7), both C¹ in γ.
 
-/// Tension τ = γ² for γ ≥ 0, else 0 [N].
+/// Tension τ = γ² for γ ≥ 0, else 0 \[N\].
 #[inline]
 pub fn tension(gamma: f64) -> f64 {
     if gamma >= 0.0 { gamma * gamma } else { 0.0 }
 }
 
-/// Slack Θ = γ² for γ < 0, else 0 [m].
+/// Slack Θ = γ² for γ < 0, else 0 \[m\].
 #[inline]
 pub fn slack(gamma: f64) -> f64 {
     if gamma < 0.0 { gamma * gamma } else { 0.0 }
@@ -74,12 +74,12 @@ pub enum TendonUnknown {
     /// γ of the paper.
     #[default]
     Gamma,
-    /// ζ = γ|γ| [N or m].
+    /// ζ = γ|γ| \[N or m\].
     Linear,
 }
 
 impl TendonUnknown {
-    /// Tension τ [N] for unknown `x`.
+    /// Tension τ \[N\] for unknown `x`.
     #[inline]
     pub fn tension(self, x: f64) -> f64 {
         match self {
@@ -88,7 +88,7 @@ impl TendonUnknown {
         }
     }
 
-    /// Slack Θ [m] for unknown `x`.
+    /// Slack Θ \[m\] for unknown `x`.
     #[inline]
     pub fn slack(self, x: f64) -> f64 {
         match self {
