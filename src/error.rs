@@ -6,7 +6,7 @@ use std::path::PathBuf;
 /// One violated rule in a design or in command-line input.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Violation {
-    /// Dotted path of the field, e.g. `leg.tendons\[1\].end`.
+    /// Dotted path of the field, e.g. `leg.tendons[1].end`.
     pub field: String,
     /// The offending value, as written.
     pub value: String,

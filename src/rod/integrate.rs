@@ -48,7 +48,7 @@ impl LegEnd {
 #[derive(Debug, Clone)]
 pub struct LegSensitivities {
     directions: usize,
-    /// `d\[j\]` = ∂(tip state)/∂(direction j).
+    /// `d[j]` = ∂(tip state)/∂(direction j).
     pub d: [LegEnd; MAX_DIRECTIONS],
 }
 

@@ -1,5 +1,5 @@
 //! Tangents of the rod state in all sensitivity directions at once, stored
-//! structure-of-arrays (`component\[direction\]`) so each operation is a loop over
+//! structure-of-arrays (`component[direction]`) so each operation is a loop over
 //! directions that the compiler vectorizes.
 
 use crate::design::MAX_TENDONS;
