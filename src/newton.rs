@@ -179,22 +179,13 @@ pub fn solve<S: NonlinearSystem>(
     );
     system.row_weights(&mut sc.weights);
     sc.history.clear();
-    // The residual alone first: a warm start that already satisfies the tolerance costs
-    // no Jacobian.
-    system.residual(x, &mut sc.r)?;
+    // Residual and Jacobian together: a start is rarely converged already (trajectory
+    // steps never are), and a separate residual would cost a primal integration per solve.
+    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
     let mut evaluations = 1;
     let mut iterations = 0;
     let mut norm = sc.r.norm();
     sc.history.push(norm);
-    if norm <= settings.tolerance {
-        return Ok(NewtonReport {
-            iterations,
-            residual_evaluations: evaluations,
-            residual_norm: norm,
-        });
-    }
-    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
-    evaluations += 1;
     let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut radius = 0.0;
     let mut successes = 0usize;
