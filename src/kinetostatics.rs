@@ -118,7 +118,7 @@ const CONTINUATION_FIRST_STEP: f64 = 0.25;
 /// γ = 0 trap of MODEL.md §9), relaxed to the design's pretension as λ → 1.
 const CONTINUATION_PRETENSION: f64 = 1.0;
 /// Newton iterations allowed per continuation step before the step is halved.
-const CONTINUATION_MAX_ITERATIONS: usize = 10;
+const CONTINUATION_MAX_ITERATIONS: usize = 25;
 
 /// How the loads evolve along a continuation.
 #[derive(Debug, Clone, Copy)]
