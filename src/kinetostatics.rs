@@ -179,6 +179,22 @@ impl Solver {
         }
     }
 
+    /// Adds the wrench and warm-start checks to `v`; the total wrench if nothing failed.
+    fn checked_wrench(
+        &self,
+        mut v: Violations,
+        extra: &Wrench,
+        init: Option<&RobotState>,
+    ) -> Result<Wrench, Error> {
+        Self::check_wrench(&mut v, extra);
+        self.check_init(&mut v, init);
+        if v.0.is_empty() {
+            Ok(self.total_wrench(extra))
+        } else {
+            Err(Error::Input(v))
+        }
+    }
+
     fn check_init(&self, v: &mut Violations, init: Option<&RobotState>) {
         if let Some(s) = init {
             if s.q.len() != self.model.n_actuators() {
@@ -229,12 +245,7 @@ impl Solver {
                 v.push(format!("q[{i}]"), x, "a finite number [m]");
             }
         }
-        Self::check_wrench(&mut v, extra);
-        self.check_init(&mut v, init);
-        if !v.0.is_empty() {
-            return Err(Error::Input(v));
-        }
-        let wrench = self.total_wrench(extra);
+        let wrench = self.checked_wrench(v, extra, init)?;
         let start = Instant::now();
         let result = match init {
             Some(s) => {
@@ -275,12 +286,7 @@ impl Solver {
         {
             v.push("pose", "a non-finite value", "finite numbers");
         }
-        Self::check_wrench(&mut v, extra);
-        self.check_init(&mut v, init);
-        if !v.0.is_empty() {
-            return Err(Error::Input(v));
-        }
-        let wrench = self.total_wrench(extra);
+        let wrench = self.checked_wrench(v, extra, init)?;
         let start = Instant::now();
         let guess = match init {
             Some(s) => RobotState {

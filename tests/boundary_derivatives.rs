@@ -266,6 +266,14 @@ fn exact_blocks_match_central_differences_for_both_designs() {
             let fd = reference_blocks(&model, &pose, &q, &wrench, &y_u, tendon_unknown);
             let nu = model.n_leg_unknowns();
             let nt = model.n_tendons();
+            // Column scales of B_u: γ or ζ 1, u(0) 1/L, v(0) 1e-4.
+            let b_u_scales: Vec<f64> = (0..3 * nu)
+                .map(|j| match j % nu {
+                    k if k < nt => 1.0,
+                    k if k < nt + 3 => 1.0 / 0.145,
+                    _ => 1e-4,
+                })
+                .collect();
             let kinds: [BlockPair; 4] = [
                 (
                     "B_x",
@@ -293,23 +301,7 @@ fn exact_blocks_match_central_differences_for_both_designs() {
                     &fd.b_w,
                     (0..6).map(|j| if j < 3 { 1.0 } else { 0.1 }).collect(),
                 ),
-                (
-                    "B_u",
-                    &exact.b_u,
-                    &fd.b_u,
-                    (0..3 * nu)
-                        .map(|j| {
-                            let k = j % nu;
-                            if k < nt {
-                                1.0
-                            } else if k < nt + 3 {
-                                1.0 / 0.145
-                            } else {
-                                1e-4
-                            }
-                        })
-                        .collect(),
-                ),
+                ("B_u", &exact.b_u, &fd.b_u, b_u_scales.clone()),
             ];
             let baselines = [&baseline.b_x, &baseline.b_q, &baseline.b_w, &baseline.b_u];
             for ((name, a, f, cols), b) in kinds.into_iter().zip(baselines) {
@@ -330,18 +322,6 @@ fn exact_blocks_match_central_differences_for_both_designs() {
             }
             // Negative controls: the measure sees a flipped column and a 1e-4 error in the
             // largest entry of the joint-moment rows of B_u.
-            let b_u_scales: Vec<f64> = (0..3 * nu)
-                .map(|j| {
-                    let k = j % nu;
-                    if k < nt {
-                        1.0
-                    } else if k < nt + 3 {
-                        1.0 / 0.145
-                    } else {
-                        1e-4
-                    }
-                })
-                .collect();
             let mut flipped = exact.b_u.clone();
             flipped.column_mut(nt + 1).neg_mut();
             assert!(sub_block_error(&flipped, &fd.b_u, &rows, &b_u_scales).0 > 1e-3);
