@@ -491,7 +491,11 @@ impl Solver {
     }
 
     /// Cold FK: Newton from the straight guess; if that fails, q is ramped from the solved
-    /// q = 0 configuration; last, continuation from the unloaded straight home.
+    /// q = 0 configuration; last, continuation from the unloaded straight home. Where one
+    /// q has several equilibria (e.g. legs buckled one way or the other under large base
+    /// translations), this returns the one Newton reaches from the straight guess, not
+    /// necessarily the one a robot moved there from home is in: warm-start from a known
+    /// state (or follow a trajectory) to stay on a branch.
     fn cold_fk(
         &mut self,
         q: &[f64],
