@@ -131,3 +131,60 @@ pub fn seeded_reachable_actuations(
     }
     Ok(sample)
 }
+
+/// The IK motion of the paper's Tab. VII on deterministic terms: `count` platform poses
+/// around `start` mixing translations (±20 mm in x and y, ±15 mm in z) and rotations
+/// (±0.1 rad about x and y, ±0.15 rad about z), each a smooth periodic function of the
+/// step, so consecutive poses differ by ≤ 1 mm and ≤ 1° for `count` ≥ 400.
+pub fn ik_motion_sequence(start: &Pose, count: usize) -> Vec<Pose> {
+    use nalgebra::{Rotation3, Vector3};
+    use std::f64::consts::TAU;
+    let r0 = Rotation3::from_matrix_unchecked(start.rotation).scaled_axis();
+    (0..count)
+        .map(|k| {
+            let t = k as f64 / count as f64;
+            let p = start.position
+                + Vector3::new(
+                    0.02 * (TAU * 2.0 * t).sin(),
+                    0.02 * (TAU * 3.0 * t).sin(),
+                    0.015 * (TAU * t).sin(),
+                );
+            let r = r0
+                + Vector3::new(
+                    0.1 * (TAU * t).sin(),
+                    0.1 * (TAU * 2.0 * t).sin(),
+                    0.15 * (TAU * 3.0 * t).sin(),
+                );
+            Pose {
+                position: p,
+                rotation: *Rotation3::new(r).matrix(),
+            }
+        })
+        .collect()
+}
+
+/// The FK motion of the paper's Tab. VII for a design with `pairs` tendon pairs per leg:
+/// `count` actuation vectors from q = 0, per leg bending ±3 mm (and ±2 mm for a second
+/// pair) and a common translation of ±20 mm, smooth and periodic, so consecutive vectors
+/// differ by ≤ 0.1 mm in the tendons and ≤ 1 mm in translation for `count` ≥ 200.
+pub fn fk_motion_sequence(pairs: usize, count: usize) -> Vec<Vec<f64>> {
+    use std::f64::consts::TAU;
+    (0..count)
+        .map(|k| {
+            let t = k as f64 / count as f64;
+            (0..3)
+                .flat_map(|leg| {
+                    let ph = leg as f64;
+                    let bend = [
+                        0.003 * (TAU * 2.0 * t + ph).sin() - 0.003 * ph.sin(),
+                        0.002 * (TAU * t + ph).sin() - 0.002 * ph.sin(),
+                    ];
+                    bend.into_iter()
+                        .take(pairs)
+                        .chain([0.02 * (TAU * t).sin()])
+                        .collect::<Vec<_>>()
+                })
+                .collect()
+        })
+        .collect()
+}
