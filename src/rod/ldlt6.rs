@@ -26,20 +26,21 @@ impl Ldlt6 {
         }
     }
 
-    /// Factors \[A Bᵀ; B C\] (A, C symmetric). `None` unless A and the Schur complement are
-    /// invertible with finite inverses (they are positive definite for τ ≥ 0).
+    /// Factors \[A Bᵀ; B C\] (A, C symmetric; only their upper triangles are read).
+    /// `None` unless A and the Schur complement S = C − B A⁻¹ Bᵀ are positive on the
+    /// diagonal and have finite inverses (both are positive definite for τ ≥ 0).
     #[inline(always)]
     pub fn factor_blocks(a: &Matrix3<f64>, b: &Matrix3<f64>, c: &Matrix3<f64>) -> Option<Self> {
-        let a_inv = a.try_inverse()?;
+        let a_inv = symmetric_inverse(a)?;
         let x = b * a_inv;
-        let s = c - x * b.transpose();
-        let s_inv = s.try_inverse()?;
-        if !(a_inv.iter().chain(s_inv.iter()).all(|v| v.is_finite()))
-            || s[(0, 0)] <= 0.0
-            || a[(0, 0)] <= 0.0
-        {
-            return None;
+        // S = C − X Bᵀ (symmetric: the upper triangle suffices).
+        let mut s = *c;
+        for i in 0..3 {
+            for j in i..3 {
+                s[(i, j)] -= x[(i, 0)] * b[(j, 0)] + x[(i, 1)] * b[(j, 1)] + x[(i, 2)] * b[(j, 2)];
+            }
         }
+        let s_inv = symmetric_inverse(&s)?;
         Some(Self {
             a_inv,
             x,
@@ -104,6 +105,28 @@ impl Ldlt6 {
             }
         }
     }
+}
+
+/// The inverse of a symmetric 3×3 matrix from its upper triangle, by cofactors; `None`
+/// unless its first pivot and determinant are positive and the inverse is finite.
+#[inline(always)]
+fn symmetric_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let (a, b, c) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
+    let (d, e, f) = (m[(1, 1)], m[(1, 2)], m[(2, 2)]);
+    let c00 = d * f - e * e;
+    let c01 = c * e - b * f;
+    let c02 = b * e - c * d;
+    let det = a * c00 + b * c01 + c * c02;
+    if !(a > 0.0 && det > 0.0) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let (i00, i01, i02) = (c00 * inv, c01 * inv, c02 * inv);
+    let i11 = (a * f - c * c) * inv;
+    let i12 = (b * c - a * e) * inv;
+    let i22 = (a * d - b * b) * inv;
+    let out = Matrix3::new(i00, i01, i02, i01, i11, i12, i02, i12, i22);
+    out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
 #[cfg(test)]

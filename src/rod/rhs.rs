@@ -183,6 +183,7 @@ impl Stage {
         let n_body = model.k_se.component_mul(&(v - Vector3::z()));
         let m_body = model.k_bt.component_mul(&u);
         // M = K + Σ_k P_kᵀ A_k P_k in 3×3 blocks [A Bᵀ; B C]: A_k, r̂A_k, r̂ A_k r̂ᵀ.
+        // A and C are symmetric: only their upper triangles are formed.
         let mut blk_a = Matrix3::from_diagonal(&model.k_se);
         let mut blk_b = Matrix3::zeros();
         let mut blk_c = Matrix3::from_diagonal(&model.k_bt);
@@ -198,12 +199,20 @@ impl Stage {
             let len = w.norm();
             let t = w / len;
             let c = tau[k] / len;
-            // r × t: A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
+            // A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
             let rt = r_k.cross(&t);
             if c != 0.0 {
-                blk_a += (Matrix3::identity() - t * t.transpose()) * c;
-                blk_b += (model.tendon_hats[k] - rt * t.transpose()) * c;
-                blk_c += (model.tendon_hat_squares[k] - rt * rt.transpose()) * c;
+                let (hat_r, hat_sq) = (&model.tendon_hats[k], &model.tendon_hat_squares[k]);
+                for i in 0..3 {
+                    for j in i..3 {
+                        let id = if i == j { 1.0 } else { 0.0 };
+                        blk_a[(i, j)] += c * (id - t[i] * t[j]);
+                        blk_c[(i, j)] += c * (hat_sq[(i, j)] - rt[i] * rt[j]);
+                    }
+                    for j in 0..3 {
+                        blk_b[(i, j)] += c * (hat_r[(i, j)] - rt[i] * t[j]);
+                    }
+                }
                 let z = u.cross(&w);
                 let a_z = (z - t * t.dot(&z)) * c;
                 rhs_v -= a_z;
@@ -241,14 +250,40 @@ impl Stage {
     /// for the first `directions` sensitivity directions.
     #[inline(always)]
     pub fn linearize(&mut self, model: &LegModel, directions: usize) {
-        let (u, v) = (self.u, self.v);
-        let u_hat = hat(&u);
-        let n_hat = hat(&self.n_body);
-        // Backbone terms. Scaling the columns of x̂ by a diagonal K gives x̂ K.
-        let mut hv_top = scale_columns(&u_hat, &model.k_se);
-        let mut hv_bot = scale_columns(&hat(&v), &model.k_se) - n_hat;
-        let mut hu_top = -n_hat;
-        let mut hu_bot = scale_columns(&u_hat, &model.k_bt) - hat(&self.m_body);
+        let (u, v, nb, mb) = (&self.u, &self.v, &self.n_body, &self.m_body);
+        let (kse, kbt) = (&model.k_se, &model.k_bt);
+        // Backbone terms, [û K_se, −n̂_b; v̂ K_se − n̂_b, û K_bt − m̂_b], x̂ K = columns of x̂
+        // scaled by the diagonal K.
+        let h = &mut self.h;
+        *h = [
+            [0.0, -u.z * kse.y, u.y * kse.z, 0.0, nb.z, -nb.y],
+            [u.z * kse.x, 0.0, -u.x * kse.z, -nb.z, 0.0, nb.x],
+            [-u.y * kse.x, u.x * kse.y, 0.0, nb.y, -nb.x, 0.0],
+            [
+                0.0,
+                -v.z * kse.y + nb.z,
+                v.y * kse.z - nb.y,
+                0.0,
+                -u.z * kbt.y + mb.z,
+                u.y * kbt.z - mb.y,
+            ],
+            [
+                v.z * kse.x - nb.z,
+                0.0,
+                -v.x * kse.z + nb.x,
+                u.z * kbt.x - mb.z,
+                0.0,
+                -u.x * kbt.z + mb.x,
+            ],
+            [
+                -v.y * kse.x + nb.y,
+                v.x * kse.y - nb.x,
+                0.0,
+                -u.y * kbt.x + mb.y,
+                u.x * kbt.y - mb.x,
+                0.0,
+            ],
+        ];
         // Tendons that are not running here inject nothing in their tension lane.
         for k in 0..model.n_tendons.min(directions.saturating_sub(6)) {
             if self.active & (1 << k) == 0 {
@@ -262,39 +297,62 @@ impl Stage {
                 continue;
             }
             let tp = &self.tendons[k];
-            let r_k = &model.tendon_offsets[k];
-            let y = self.dv + self.du.cross(r_k) + u.cross(&tp.w);
-            let ty = tp.t.dot(&y);
-            let q = y - tp.t * ty;
+            let r = &model.tendon_offsets[k];
+            let y = self.dv + self.du.cross(r) + u.cross(&tp.w);
+            let (t, c, len) = (&tp.t, tp.c, tp.len);
+            let ty = t.dot(&y);
+            let q = y - t * ty;
             let lane = 6 + k;
             if lane < directions {
-                let src = q / tp.len;
-                let moment = r_k.cross(&src);
-                for c in 0..3 {
-                    self.inject[c][lane] = src[c];
-                    self.inject[3 + c][lane] = moment[c];
+                let src = q / len;
+                let moment = r.cross(&src);
+                for i in 0..3 {
+                    self.inject[i][lane] = src[i];
+                    self.inject[3 + i][lane] = moment[i];
                 }
             }
-            if tp.c == 0.0 {
+            if c == 0.0 {
                 continue;
             }
-            let proj = Matrix3::identity() - tp.t * tp.t.transpose();
-            let a = proj * tp.c;
-            let tm = (q * tp.t.transpose() + tp.t * q.transpose() + proj * ty) * (tp.c / tp.len);
-            let n = a * u_hat - tm;
-            let nu = -times_hat(&n, r_k) - times_hat(&a, &tp.w);
-            let r_hat = &model.tendon_hats[k];
-            hv_top += n;
-            hv_bot += r_hat * n;
-            hu_top += nu;
-            hu_bot += r_hat * nu;
-        }
-        for c in 0..3 {
-            for j in 0..3 {
-                self.h[c][j] = hv_top[(c, j)];
-                self.h[3 + c][j] = hv_bot[(c, j)];
-                self.h[c][3 + j] = hu_top[(c, j)];
-                self.h[3 + c][3 + j] = hu_bot[(c, j)];
+            // N = A û − T with A û = c (û + t (u × t)ᵀ) and
+            // T = (c/ℓ)(q tᵀ + t qᵀ + (t·y)(I − t tᵀ)); Ñ = −N r̂ − A ŵ, A ŵ = c ŵ (t ∥ w).
+            let ut = u.cross(t);
+            let (ct, w) = (c / len, &tp.w);
+            let u_hat = [[0.0, -u.z, u.y], [u.z, 0.0, -u.x], [-u.y, u.x, 0.0]];
+            let mut n = [[0.0; 3]; 3];
+            for i in 0..3 {
+                for j in 0..3 {
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    let a_u = c * (u_hat[i][j] + t[i] * ut[j]);
+                    let tm = ct * (q[i] * t[j] + t[i] * q[j] + ty * (id - t[i] * t[j]));
+                    n[i][j] = a_u - tm;
+                }
+            }
+            let w_hat = [[0.0, -w.z, w.y], [w.z, 0.0, -w.x], [-w.y, w.x, 0.0]];
+            // Ñ = −N r̂ − c ŵ, N r̂ by columns: (N r̂) e_j = N (r × e_j).
+            let mut nt = [[0.0; 3]; 3];
+            for i in 0..3 {
+                let row = &n[i];
+                let nr = [
+                    row[1] * r.z - row[2] * r.y,
+                    row[2] * r.x - row[0] * r.z,
+                    row[0] * r.y - row[1] * r.x,
+                ];
+                for j in 0..3 {
+                    nt[i][j] = -nr[j] - c * w_hat[i][j];
+                }
+            }
+            // [I; r̂] applied to N (H_v columns) and Ñ (H_u columns): r̂ M by rows.
+            for (m, col) in [(&n, 0), (&nt, 3)] {
+                for j in 0..3 {
+                    let (m0, m1, m2) = (m[0][j], m[1][j], m[2][j]);
+                    h[0][col + j] += m0;
+                    h[1][col + j] += m1;
+                    h[2][col + j] += m2;
+                    h[3][col + j] += r.y * m2 - r.z * m1;
+                    h[4][col + j] += r.z * m0 - r.x * m2;
+                    h[5][col + j] += r.x * m1 - r.y * m0;
+                }
             }
         }
     }
@@ -461,12 +519,6 @@ impl RkEmit<'_> {
             }
         }
     }
-}
-
-/// x̂ K for a diagonal K given by its diagonal.
-#[inline]
-fn scale_columns(m: &Matrix3<f64>, k: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::from_columns(&[m.column(0) * k.x, m.column(1) * k.y, m.column(2) * k.z])
 }
 
 impl Default for Stage {
