@@ -1,0 +1,136 @@
+//! Errors of a search. A design that cannot be scored is not an error (it is an
+//! [`crate::objectives::Infeasibility`]); the end of a search is a
+//! [`crate::search::TerminationReason`], not an error.
+
+use std::path::{Path, PathBuf};
+
+use tdpcr::DesignError;
+
+use crate::cmaes::CmaesError;
+
+/// Anything that stops a search before it can run or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum OptimError {
+    /// The config or the base design cannot be read, parsed or accepted.
+    #[error(transparent)]
+    Config(#[from] DesignError),
+    /// A file or directory could not be read or written.
+    #[error("cannot access {path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
+    /// A new run would overwrite an existing one.
+    #[error(
+        "{path} already holds evaluations: pass --resume to continue that run, or choose another --out"
+    )]
+    RunExists {
+        /// The existing log.
+        path: PathBuf,
+    },
+    /// `--resume` without a run to continue.
+    #[error("--resume: no run to continue ({path} is missing)")]
+    NoRun {
+        /// The missing run identity file.
+        path: PathBuf,
+    },
+    /// `--resume` with settings that differ from the stored run.
+    #[error("--resume: the settings differ from the run in {dir}:{differences}")]
+    ResumeMismatch {
+        /// The run directory.
+        dir: PathBuf,
+        /// One line per differing field: stored and current value.
+        differences: String,
+    },
+    /// A line of the log (or the run file) does not parse.
+    #[error("{path}:{line}: corrupt record: {message}")]
+    CorruptLog {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// A logged candidate is not the one the replayed search asks for.
+    #[error(
+        "--resume: logged candidate {id} has x = {logged:?} but the replayed search asks for x = {asked:?} (the log was written by another version or edited)"
+    )]
+    ReplayMismatch {
+        /// Candidate id.
+        id: usize,
+        /// Box point in the log.
+        logged: Vec<f64>,
+        /// Box point the search asks for now.
+        asked: Vec<f64>,
+    },
+    /// The optimizer was misused (a bug).
+    #[error(transparent)]
+    Cmaes(#[from] CmaesError),
+}
+
+impl OptimError {
+    /// [`OptimError::Io`] for `path`.
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// Whether the user's input is at fault (exit code 2) rather than the run (exit 1).
+    pub fn is_input_error(&self) -> bool {
+        matches!(
+            self,
+            Self::Config(_)
+                | Self::RunExists { .. }
+                | Self::NoRun { .. }
+                | Self::ResumeMismatch { .. }
+                | Self::ReplayMismatch { .. }
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_name_the_file_and_the_values() {
+        let cases = [
+            (
+                OptimError::RunExists {
+                    path: "out/evaluations.jsonl".into(),
+                },
+                "out/evaluations.jsonl already holds evaluations: pass --resume to continue that run, or choose another --out",
+            ),
+            (
+                OptimError::NoRun {
+                    path: "out/run.ron".into(),
+                },
+                "--resume: no run to continue (out/run.ron is missing)",
+            ),
+            (
+                OptimError::CorruptLog {
+                    path: "e.jsonl".into(),
+                    line: 3,
+                    message: "EOF".into(),
+                },
+                "e.jsonl:3: corrupt record: EOF",
+            ),
+            (
+                OptimError::ReplayMismatch {
+                    id: 4,
+                    logged: vec![0.5],
+                    asked: vec![0.25],
+                },
+                "--resume: logged candidate 4 has x = [0.5] but the replayed search asks for x = [0.25] (the log was written by another version or edited)",
+            ),
+        ];
+        for (e, text) in cases {
+            assert_eq!(e.to_string(), text);
+        }
+    }
+}

@@ -1,0 +1,255 @@
+//! The run directory's record of a search: `evaluations.jsonl` (one JSON object per
+//! evaluation, appended and flushed as each evaluation finishes) and `run.ron` (the
+//! effective config and the base design, to check that `--resume` continues the same
+//! search).
+//!
+//! Lines are appended in the order evaluations finish, which varies with the thread
+//! schedule; each carries its `id` (0 = the reference, candidates from 1 in the order
+//! CMA-ES asks for them), and everything in a record except `eval_time_s` depends only on
+//! the config and the seed.
+
+use std::collections::BTreeMap;
+use std::fs::{File, OpenOptions};
+use std::io::{Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+use tdpcr::Tdpcr;
+
+use crate::config::OptimConfig;
+use crate::error::OptimError;
+use crate::objectives::Outcome;
+
+/// File name of the evaluation log in the run directory.
+pub const LOG_FILE: &str = "evaluations.jsonl";
+/// File name of the run identity (effective config and base design).
+pub const RUN_FILE: &str = "run.ron";
+
+/// One evaluation, as logged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Record {
+    /// 0 for the reference (base) design; candidates from 1, in the order asked.
+    pub id: usize,
+    /// CMA-ES generation (from 0); `None` for the reference.
+    pub generation: Option<usize>,
+    /// The point in the unit box (the reference's may lie outside \[0, 1\]).
+    pub x: Vec<f64>,
+    /// Parameter values by name (units: rad, m, N, see the config).
+    pub parameters: BTreeMap<String, f64>,
+    /// What the evaluation found.
+    pub outcome: Outcome,
+    /// The weighted composite (None when infeasible); recomputed on resume.
+    pub composite: Option<f64>,
+    /// Wall time of this evaluation \[s\] (other evaluations ran at the same time).
+    pub eval_time_s: f64,
+}
+
+/// The identity of a run, stored as `run.ron`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunInfo {
+    /// The config with the command-line overrides applied.
+    pub config: OptimConfig,
+    /// The base design as loaded.
+    pub base_design: Tdpcr,
+}
+
+impl RunInfo {
+    /// The differences that forbid resuming `stored` with `self`: every config field
+    /// except the budget (which may grow) and the base design's path (its content is
+    /// compared instead). Returns (field, stored, now) triples.
+    pub fn differences(&self, stored: &RunInfo) -> Vec<(String, String, String)> {
+        let (a, b) = (&stored.config, &self.config);
+        let mut out = Vec::new();
+        let mut cmp = |field: &str, x: String, y: String| {
+            if x != y {
+                out.push((field.to_string(), x, y));
+            }
+        };
+        cmp(
+            "parameters",
+            format!("{:?}", a.parameters),
+            format!("{:?}", b.parameters),
+        );
+        cmp(
+            "evaluation",
+            format!("{:?}", a.evaluation),
+            format!("{:?}", b.evaluation),
+        );
+        cmp(
+            "objectives",
+            format!("{:?}", a.objectives),
+            format!("{:?}", b.objectives),
+        );
+        cmp("seed", a.seed.to_string(), b.seed.to_string());
+        cmp(
+            "population",
+            a.population_size().to_string(),
+            b.population_size().to_string(),
+        );
+        cmp(
+            "initial_step",
+            a.initial_step.to_string(),
+            b.initial_step.to_string(),
+        );
+        if stored.base_design != self.base_design {
+            cmp(
+                "base_design (content)",
+                stored.base_design.to_ron_string(),
+                self.base_design.to_ron_string(),
+            );
+        }
+        out
+    }
+}
+
+/// The append-only evaluation log.
+#[derive(Debug)]
+pub struct ResultsLog {
+    path: PathBuf,
+    file: Mutex<File>,
+}
+
+impl ResultsLog {
+    /// Starts a new run in `dir` (created if missing): writes `run.ron` and an empty log.
+    ///
+    /// # Errors
+    /// [`OptimError::RunExists`] if `dir` already holds a log with records;
+    /// [`OptimError::Io`].
+    pub fn create(dir: &Path, info: &RunInfo) -> Result<Self, OptimError> {
+        std::fs::create_dir_all(dir).map_err(|source| OptimError::io(dir, source))?;
+        let path = dir.join(LOG_FILE);
+        if std::fs::metadata(&path).is_ok_and(|m| m.len() > 0) {
+            return Err(OptimError::RunExists { path });
+        }
+        crate::files::write_atomically(&dir.join(RUN_FILE), run_info_text(info).as_bytes())?;
+        let file = File::create(&path).map_err(|source| OptimError::io(&path, source))?;
+        Ok(Self {
+            path,
+            file: Mutex::new(file),
+        })
+    }
+
+    /// Reopens the run in `dir` for `--resume`: checks that `info` matches the stored
+    /// `run.ron`, reads every record, drops a torn last line (an interrupted write), and
+    /// rewrites `run.ron` (the budget may have changed).
+    ///
+    /// # Errors
+    /// [`OptimError::NoRun`], [`OptimError::ResumeMismatch`], [`OptimError::CorruptLog`]
+    /// (a bad line other than the last), [`OptimError::Io`].
+    pub fn resume(
+        dir: &Path,
+        info: &RunInfo,
+    ) -> Result<(Self, BTreeMap<usize, Record>), OptimError> {
+        let run_path = dir.join(RUN_FILE);
+        let path = dir.join(LOG_FILE);
+        let text = match std::fs::read_to_string(&run_path) {
+            Ok(t) => t,
+            Err(_) => return Err(OptimError::NoRun { path: run_path }),
+        };
+        let stored: RunInfo = ron::de::from_str(&text).map_err(|e| OptimError::CorruptLog {
+            path: run_path.clone(),
+            line: e.span.start.line,
+            message: e.code.to_string(),
+        })?;
+        let diffs = info.differences(&stored);
+        if !diffs.is_empty() {
+            return Err(OptimError::ResumeMismatch {
+                dir: dir.to_path_buf(),
+                differences: diffs
+                    .into_iter()
+                    .map(|(f, a, b)| format!("\n  - {f}: stored {a}, now {b}"))
+                    .collect(),
+            });
+        }
+        let content = std::fs::read_to_string(&path).unwrap_or_default();
+        let mut records = BTreeMap::new();
+        let mut good_len = 0;
+        let lines: Vec<&str> = content.split_inclusive('\n').collect();
+        for (i, line) in lines.iter().enumerate() {
+            let last = i + 1 == lines.len();
+            match (
+                serde_json::from_str::<Record>(line.trim_end()),
+                line.ends_with('\n'),
+            ) {
+                (Ok(r), true) => {
+                    records.insert(r.id, r);
+                    good_len += line.len();
+                }
+                (Err(e), _) if !last => {
+                    return Err(OptimError::CorruptLog {
+                        path,
+                        line: i + 1,
+                        message: e.to_string(),
+                    });
+                }
+                // The last line torn by an interrupted write: dropped, evaluated again.
+                _ => break,
+            }
+        }
+        let mut file = OpenOptions::new()
+            .create(true)
+            .write(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(|source| OptimError::io(&path, source))?;
+        file.set_len(good_len as u64)
+            .and_then(|()| file.seek(SeekFrom::End(0)))
+            .map_err(|source| OptimError::io(&path, source))?;
+        crate::files::write_atomically(&run_path, run_info_text(info).as_bytes())?;
+        Ok((
+            Self {
+                path,
+                file: Mutex::new(file),
+            },
+            records,
+        ))
+    }
+
+    /// Appends one record as one line and flushes it.
+    ///
+    /// # Errors
+    /// [`OptimError::Io`].
+    pub fn append(&self, record: &Record) -> Result<(), OptimError> {
+        let mut line = serde_json::to_string(record).expect("records always serialize");
+        line.push('\n');
+        let mut file = self.file.lock().unwrap_or_else(|e| e.into_inner());
+        file.write_all(line.as_bytes())
+            .and_then(|()| file.flush())
+            .map_err(|source| OptimError::io(&self.path, source))
+    }
+
+    /// The log's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+fn run_info_text(info: &RunInfo) -> String {
+    let pretty = ron::ser::PrettyConfig::new().struct_names(true);
+    let body = ron::ser::to_string_pretty(info, pretty).expect("run info always serializes");
+    format!(
+        "// tdpcr-optim run identity: --resume continues this run only with the same settings.\n{body}\n"
+    )
+}
+
+/// Reads every complete record of a log file, sorted by id (for tests and tools).
+///
+/// # Errors
+/// [`OptimError::Io`], [`OptimError::CorruptLog`].
+pub fn read_log(path: &Path) -> Result<Vec<Record>, OptimError> {
+    let content = std::fs::read_to_string(path).map_err(|source| OptimError::io(path, source))?;
+    let mut records = Vec::new();
+    for (i, line) in content.lines().enumerate() {
+        let r: Record = serde_json::from_str(line).map_err(|e| OptimError::CorruptLog {
+            path: path.to_path_buf(),
+            line: i + 1,
+            message: e.to_string(),
+        })?;
+        records.push(r);
+    }
+    records.sort_by_key(|r| r.id);
+    Ok(records)
+}
