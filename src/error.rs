@@ -130,4 +130,12 @@ pub enum Error {
     /// The inputs of a solve (actuation, loads, ...) break a rule; all are listed.
     #[error("invalid input:{0}")]
     Input(Violations),
+    /// An output file or directory could not be written.
+    #[error("cannot write {path}: {source}")]
+    Output {
+        /// The file or directory.
+        path: PathBuf,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
 }

@@ -36,6 +36,7 @@ pub mod rod;
 pub mod sampling;
 pub mod tdcr;
 pub mod trajectory;
+pub mod workspace;
 
 pub use design::{Leg, Tdcr, Tdpcr};
 pub use error::{DesignError, SolveError};

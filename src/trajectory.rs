@@ -217,9 +217,9 @@ pub fn run_trajectory(
     (steps, stats)
 }
 
-/// 2 b − a for every unknown (the rotation vector extrapolated component-wise: steps are
-/// small).
-fn extrapolate(a: &RobotState, b: &RobotState) -> RobotState {
+/// The secant prediction 2 b − a from two consecutive solutions a, b, for every unknown
+/// (the rotation vector extrapolated component-wise: steps are small).
+pub fn extrapolate(a: &RobotState, b: &RobotState) -> RobotState {
     let lin =
         |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(x, y)| 2.0 * y - x).collect() };
     let arr =
