@@ -130,4 +130,7 @@ pub enum Error {
     /// The inputs of a solve (actuation, loads, ...) break a rule; all are listed.
     #[error("invalid input:{0}")]
     Input(Violations),
+    /// A kinetostatic analysis failed (an exactly singular matrix).
+    #[error(transparent)]
+    Analysis(#[from] crate::analysis::AnalysisError),
 }
