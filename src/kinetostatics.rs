@@ -771,6 +771,11 @@ impl Solver {
         self.newton.residual_history()
     }
 
+    /// The model and the blocks of the last evaluation (after [`Solver::blocks_at`]).
+    pub(crate) fn model_and_blocks(&self) -> (&Model, &BoundaryJacobians) {
+        (&self.model, &self.blocks)
+    }
+
     /// The residual and exact blocks at a state (for analysis and tests).
     ///
     /// # Errors

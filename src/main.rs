@@ -750,7 +750,7 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e}");
             match e {
-                Error::Solve(_) => ExitCode::from(1),
+                Error::Solve(_) | Error::Analysis(_) => ExitCode::from(1),
                 _ => ExitCode::from(2),
             }
         }
