@@ -868,24 +868,6 @@ impl Solver {
             }
         }
         self.newton.solve_with_last_jacobian(&mut rhs)?;
-        // The prediction stops where the first tendon would cross between taut and slack:
-        // ζ is a tension (N) on one side and a slack (m) on the other, so the tangent of
-        // one side says nothing about the other (Newton takes it from there).
-        let head = match problem {
-            Problem::Forward { .. } => 6,
-            Problem::Inverse { .. } => self.model.n_actuators(),
-        };
-        let (nu, nt) = (self.model.n_leg_unknowns(), self.model.n_tendons());
-        let mut fraction: f64 = 1.0;
-        for leg in 0..3 {
-            for k in 0..nt {
-                let i = head + leg * nu + k;
-                if (x[i] + rhs[i]) * x[i] < 0.0 {
-                    fraction = fraction.min(-x[i] / rhs[i]);
-                }
-            }
-        }
-        rhs.scale_mut(fraction);
         let mut out = DVector::zeros(x.len());
         retract(problem, x, &rhs, &mut out);
         Some(out)
