@@ -1,5 +1,6 @@
 //! Parallel robot: boundary residual, exact vs finite-difference Jacobian, the dense
-//! Newton solve, cold FK over 30 seeded actuation vectors, and warm IK steps.
+//! Newton solve, cold FK over 30 seeded reachable actuation vectors, warm IK steps and
+//! the paper's motion sequences.
 
 use std::hint::black_box;
 
@@ -15,7 +16,8 @@ use tdpcr::linalg::DenseLu;
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
 use tdpcr::rod::tendon::TendonUnknown;
-use tdpcr::sampling::seeded_actuations;
+use tdpcr::sampling::{fk_motion_sequence, ik_motion_sequence, seeded_reachable_actuations};
+use tdpcr::trajectory::{Targets, run_trajectory};
 
 fn design(file: &str) -> Tdpcr {
     Tdpcr::from_ron_file(format!("{}/designs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap()
@@ -113,36 +115,68 @@ fn bench_solves(c: &mut Criterion) {
     group.sample_size(10);
     let d = design("lilge2022.ron");
     let mut solver = Solver::new(&d);
-    let set = seeded_actuations(solver.model(), 30, 42);
+    let w = Wrench::default();
+    let set = seeded_reachable_actuations(&d, 30, 42).unwrap().actuations;
     group.bench_function("fk_cold_30_vectors", |b| {
         b.iter(|| {
             let mut converged = 0;
             for q in &set {
-                converged += usize::from(
-                    solver
-                        .solve_fk(black_box(q), &Wrench::default(), None)
-                        .is_ok(),
-                );
+                converged += usize::from(solver.solve_fk(black_box(q), &w, None).is_ok());
             }
             converged
         })
     });
-    // A warm IK step of 1 mm from a solved pose.
+    // Warm IK steps of 1 mm, alternating between two poses, each from the solver's own
+    // last solution (what a controller or trajectory does: tangent prediction applies).
     let home = solved_state(&mut solver, &[0.0; 6]);
-    let target = Pose {
-        position: home.pose().position + Vector3::new(0.001, 0.0, 0.0),
-        rotation: home.pose().rotation,
-    };
+    let poses = [
+        home.pose(),
+        Pose {
+            position: home.pose().position + Vector3::new(0.001, 0.0, 0.0),
+            rotation: home.pose().rotation,
+        },
+    ];
+    let mut last = solver.solve_ik(&poses[0], &w, Some(&home)).unwrap().state;
+    let mut k = 0;
     group.bench_function("ik_warm_step_1mm", |b| {
+        b.iter(|| {
+            k += 1;
+            let sol = solver
+                .solve_ik(black_box(&poses[k % 2]), &w, Some(&last))
+                .unwrap();
+            last = sol.state;
+        })
+    });
+    // The same step from a state this solver did not produce (no prediction).
+    group.bench_function("ik_warm_step_1mm_unpredicted", |b| {
         b.iter_batched(
-            || home.clone(),
-            |start| {
-                solver
-                    .solve_ik(black_box(&target), &Wrench::default(), Some(&start))
+            || (Solver::new(&d), home.clone()),
+            |(mut fresh, start)| {
+                fresh
+                    .solve_ik(black_box(&poses[1]), &w, Some(&start))
                     .unwrap()
             },
-            BatchSize::SmallInput,
+            BatchSize::LargeInput,
         )
+    });
+    // The paper's Tab. VII sequences, whole (per-step statistics: the example
+    // motion_sequences).
+    let ik = ik_motion_sequence(&home.pose(), 1300);
+    group.bench_function("ik_motion_1300_poses", |b| {
+        b.iter(|| run_trajectory(&mut solver, black_box(&Targets::Poses(ik.clone())), &w).1)
+    });
+    let d9 = design("lilge2022_redundant.ron");
+    let mut solver9 = Solver::new(&d9);
+    let fk = fk_motion_sequence(solver9.model().pairs, 1000);
+    group.bench_function("fk_motion_1000_steps_9dof", |b| {
+        b.iter(|| {
+            run_trajectory(
+                &mut solver9,
+                black_box(&Targets::Actuations(fk.clone())),
+                &w,
+            )
+            .1
+        })
     });
     group.finish();
 }

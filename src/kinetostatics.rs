@@ -107,6 +107,20 @@ pub struct Solver {
     pub settings: NewtonSettings,
     /// Jacobian used by Newton.
     pub jacobian: JacobianMethod,
+    /// The last converged square solve whose factorized Jacobian is still in `newton`
+    /// (the tangent predictor of warm starts from it).
+    last: Option<LastSolve>,
+}
+
+/// What the Newton scratch's factorized Jacobian linearizes.
+#[derive(Debug, Clone, PartialEq)]
+struct LastSolve {
+    /// The solution.
+    state: RobotState,
+    /// The total wrench it was solved under.
+    wrench: Wrench,
+    /// FK (true) or square IK (false).
+    forward: bool,
 }
 
 /// Tendon crossings earlier than this fraction of a Newton step do not limit it.
@@ -155,6 +169,7 @@ impl Solver {
             model,
             settings,
             jacobian: JacobianMethod::Exact,
+            last: None,
         }
     }
 
@@ -314,6 +329,7 @@ impl Solver {
         wrench: &Wrench,
         guess: RobotState,
     ) -> Result<(RobotState, NewtonReport), SolveError> {
+        self.last = None;
         let model = scaled.unwrap_or(&self.model);
         let (nq, nu, m) = (
             model.n_actuators(),
@@ -334,6 +350,7 @@ impl Solver {
         let mut report = NewtonReport {
             iterations: 0,
             residual_evaluations: 0,
+            jacobian_evaluations: 0,
             residual_norm: f64::NAN,
         };
         loop {
@@ -346,6 +363,7 @@ impl Solver {
             };
             boundary_derivatives(model, &mut self.boundary, &p, &mut r, &mut self.blocks)?;
             report.residual_evaluations += 1;
+            report.jacobian_evaluations += 1;
             report.residual_norm = r.norm();
             if report.residual_norm <= settings.tolerance {
                 convert_tendon_unknowns(model, &mut y, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
@@ -464,7 +482,11 @@ impl Solver {
     }
 
     /// Cold FK: Newton from the straight guess; if that fails, q is ramped from the solved
-    /// q = 0 configuration; last, continuation from the unloaded straight home.
+    /// q = 0 configuration; last, continuation from the unloaded straight home. Where one
+    /// q has several equilibria (e.g. legs buckled one way or the other under large base
+    /// translations), this returns the one Newton reaches from the straight guess, not
+    /// necessarily the one a robot moved there from home is in: warm-start from a known
+    /// state (or follow a trajectory) to stay on a branch.
     fn cold_fk(
         &mut self,
         q: &[f64],
@@ -489,6 +511,7 @@ impl Solver {
             if let Ok((state, mut report)) = self.ramp_actuation(home, q, wrench) {
                 report.iterations += r.iterations;
                 report.residual_evaluations += r.residual_evaluations;
+                report.jacobian_evaluations += r.jacobian_evaluations;
                 return Ok((state, report));
             }
         }
@@ -548,6 +571,7 @@ impl Solver {
         let mut total = NewtonReport {
             iterations: 0,
             residual_evaluations: 0,
+            jacobian_evaluations: 0,
             residual_norm: f64::NAN,
         };
         let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
@@ -575,6 +599,7 @@ impl Solver {
                 Ok((s, r)) => {
                     total.iterations += r.iterations;
                     total.residual_evaluations += r.residual_evaluations;
+                    total.jacobian_evaluations += r.jacobian_evaluations;
                     total.residual_norm = r.residual_norm;
                     state = s;
                     lambda = next;
@@ -712,6 +737,7 @@ impl Solver {
     ) -> Result<(RobotState, NewtonReport), SolveError> {
         let model = scaled.unwrap_or(&self.model);
         let n_u = 3 * model.n_leg_unknowns();
+        let from_last = scaled.is_none() && self.is_last_solution(problem, wrench, &guess);
         let mut guess = guess;
         convert_tendon_unknowns(
             model,
@@ -735,6 +761,12 @@ impl Solver {
                 (x, nq)
             }
         };
+        let predicted = if from_last {
+            self.predict(problem, &x)
+        } else {
+            None
+        };
+        self.last = None;
         let mut system = ShootingSystem {
             model,
             boundary: &mut self.boundary,
@@ -743,7 +775,17 @@ impl Solver {
             problem,
             wrench,
         };
-        let report = newton::solve(&mut system, &mut x, settings, &mut self.newton)?;
+        // From the tangent prediction if there is one; from the guess itself if that fails.
+        let report = match predicted {
+            Some(mut xp) => match newton::solve(&mut system, &mut xp, settings, &mut self.newton) {
+                Ok(r) => {
+                    x = xp;
+                    Ok(r)
+                }
+                Err(_) => newton::solve(&mut system, &mut x, settings, &mut self.newton),
+            },
+            None => newton::solve(&mut system, &mut x, settings, &mut self.newton),
+        }?;
         let mut y_u: Vec<f64> = x.rows(n_head, n_u).iter().copied().collect();
         convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
         let state = match problem {
@@ -762,7 +804,64 @@ impl Solver {
                 y_u,
             },
         };
+        if scaled.is_none() && self.jacobian == JacobianMethod::Exact {
+            self.last = Some(LastSolve {
+                state: state.clone(),
+                wrench: *wrench,
+                forward: matches!(problem, Problem::Forward { .. }),
+            });
+        }
         Ok((state, report))
+    }
+
+    /// Whether `guess` is the last solution with only the target of `problem` changed
+    /// (FK: q; IK: the pose), under the same wrench.
+    fn is_last_solution(&self, problem: Problem, wrench: &Wrench, guess: &RobotState) -> bool {
+        let Some(last) = self.last.as_ref() else {
+            return false;
+        };
+        let same_legs = last.wrench == *wrench && last.state.y_u == guess.y_u;
+        match problem {
+            Problem::Forward { .. } => {
+                last.forward
+                    && same_legs
+                    && last.state.position == guess.position
+                    && last.state.rotvec == guess.rotvec
+            }
+            Problem::Inverse { .. } => !last.forward && same_legs && last.state.q == guess.q,
+        }
+    }
+
+    /// The first-order (tangent) prediction of the solution of `problem` from the last
+    /// solve: FK \[δx; δy\] = −\[B_x B_u\]⁻¹ B_q δq, IK \[δq; δy\] = −\[B_q B_u\]⁻¹ B_x δx
+    /// (MODEL.md §4), with the exact Jacobian factorized in the last Newton iteration (near
+    /// the solution). `x` is the last solution in the solver's unknowns with the new target;
+    /// the prediction is returned in the same form.
+    fn predict(&self, problem: Problem, x: &DVector<f64>) -> Option<DVector<f64>> {
+        let last = self.last.as_ref()?;
+        let mut rhs = DVector::zeros(self.model.n_residuals());
+        match problem {
+            Problem::Forward { q } => {
+                for (j, (a, b)) in q.iter().zip(&last.state.q).enumerate() {
+                    rhs.axpy(-(a - b), &self.blocks.b_q.column(j), 1.0);
+                }
+            }
+            Problem::Inverse { pose } => {
+                let from = last.state.pose();
+                let dp = pose.position - from.position;
+                let dtheta =
+                    Rotation3::from_matrix_unchecked(pose.rotation * from.rotation.transpose())
+                        .scaled_axis();
+                for c in 0..3 {
+                    rhs.axpy(-dp[c], &self.blocks.b_x.column(c), 1.0);
+                    rhs.axpy(-dtheta[c], &self.blocks.b_x.column(3 + c), 1.0);
+                }
+            }
+        }
+        self.newton.solve_with_last_jacobian(&mut rhs)?;
+        let mut out = DVector::zeros(x.len());
+        retract(problem, x, &rhs, &mut out);
+        Some(out)
     }
 
     /// ‖b‖₂ after each iteration of the last Newton run (the last continuation step when
@@ -794,6 +893,7 @@ impl Solver {
             y_u: &state.y_u,
             tendon_unknown: TendonUnknown::Gamma,
         };
+        self.last = None;
         let mut r = DVector::zeros(self.model.n_residuals());
         boundary_derivatives(
             &self.model,
@@ -1018,15 +1118,20 @@ impl NonlinearSystem for ShootingSystem<'_> {
     }
 
     fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
-        out.copy_from(x);
-        *out += step;
-        if let Problem::Forward { .. } = self.problem {
-            let r = Rotation3::new(Vector3::new(step[3], step[4], step[5]))
-                * Rotation3::new(Vector3::new(x[3], x[4], x[5]));
-            let phi = r.scaled_axis();
-            for c in 0..3 {
-                out[3 + c] = phi[c];
-            }
+        retract(self.problem, x, step, out);
+    }
+}
+
+/// x ⊕ step in the unknowns of `problem`: FK rotations compose, R ← exp(δθ^) R.
+fn retract(problem: Problem, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
+    out.copy_from(x);
+    *out += step;
+    if let Problem::Forward { .. } = problem {
+        let r = Rotation3::new(Vector3::new(step[3], step[4], step[5]))
+            * Rotation3::new(Vector3::new(x[3], x[4], x[5]));
+        let phi = r.scaled_axis();
+        for c in 0..3 {
+            out[3 + c] = phi[c];
         }
     }
 }

@@ -68,6 +68,10 @@ pub struct NewtonSettings {
     pub max_iterations: usize,
     /// Initial trust radius Δ₀ = factor · ‖D x₀‖ (MINPACK's `factor`).
     pub initial_radius_factor: f64,
+    /// Chord steps (the factorized Jacobian reused) are taken while each full step
+    /// reduces the weighted residual norm by at least this factor; 0 re-evaluates the
+    /// Jacobian at every iterate (plain Newton).
+    pub chord_contraction: f64,
 }
 
 impl Default for NewtonSettings {
@@ -76,6 +80,7 @@ impl Default for NewtonSettings {
             tolerance: 1e-10,
             max_iterations: 60,
             initial_radius_factor: 100.0,
+            chord_contraction: 0.1,
         }
     }
 }
@@ -85,8 +90,11 @@ impl Default for NewtonSettings {
 pub struct NewtonReport {
     /// Newton iterations: accepted steps, each followed by one Jacobian evaluation.
     pub iterations: usize,
-    /// Residual evaluations, including those of rejected trial steps.
+    /// Residual evaluations, including those of rejected trial steps (each Jacobian
+    /// evaluation also evaluates the residual and is counted here).
     pub residual_evaluations: usize,
+    /// Of those, the evaluations that also computed the Jacobian.
+    pub jacobian_evaluations: usize,
     /// Final ‖F(x)‖₂ (SI).
     pub residual_norm: f64,
 }
@@ -98,8 +106,14 @@ pub struct NewtonScratch {
     r_trial: DVector<f64>,
     x_trial: DVector<f64>,
     weights: DVector<f64>,
+    /// The Jacobian: raw after an evaluation, row-weighted once factored.
     jac: DMatrix<f64>,
+    jac_trial: DMatrix<f64>,
     lu: DenseLu,
+    /// Whether `jac` is weighted and factored (its LU in `lu`).
+    factored: bool,
+    /// Whether that factorization succeeded.
+    newton_ok: bool,
     diag: DVector<f64>,
     newton_step: DVector<f64>,
     gradient: DVector<f64>,
@@ -118,7 +132,10 @@ impl NewtonScratch {
             x_trial: v(),
             weights: v(),
             jac: DMatrix::zeros(n, n),
+            jac_trial: DMatrix::zeros(n, n),
             lu: DenseLu::new(n),
+            factored: false,
+            newton_ok: false,
             diag: v(),
             newton_step: v(),
             gradient: v(),
@@ -136,6 +153,19 @@ impl NewtonScratch {
     /// The residual F at the final iterate of the last solve (SI).
     pub fn residual(&self) -> &DVector<f64> {
         &self.r
+    }
+
+    /// Solves J δ = b with the last factorized Jacobian J of the last solve (the exact
+    /// Jacobian at the last point where it was evaluated, near the solution), in place;
+    /// `None` if there is none or it was singular.
+    pub fn solve_with_last_jacobian(&self, b: &mut DVector<f64>) -> Option<()> {
+        if !(self.factored && self.newton_ok) {
+            return None;
+        }
+        // The factorization is of W J: (W J) δ = W b.
+        b.component_mul_assign(&self.weights);
+        self.lu.solve_in_place(b);
+        b.iter().all(|v| v.is_finite()).then_some(())
     }
 
     /// Size the buffers were made for.
@@ -159,6 +189,13 @@ fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
 
 /// Solves F(x) = 0 from the start in `x` (overwritten with the solution).
 ///
+/// Newton with the exact Jacobian, reused (Shamanskii's chord steps) while it still
+/// contracts the residual by [`NewtonSettings::chord_contraction`] per step: near a solution a chord step
+/// costs one residual evaluation instead of one Jacobian evaluation and keeps the
+/// convergence superlinear. A trial point is evaluated together with its Jacobian when the
+/// last step contracted poorly (a fresh Jacobian will be needed there anyway), unless a
+/// trial of the same iteration was already rejected.
+///
 /// # Errors
 /// [`SolveError::NotConverged`] with the residual norm and iteration count, or
 /// [`SolveError::NonFinite`] if F cannot be evaluated at the start.
@@ -179,16 +216,20 @@ pub fn solve<S: NonlinearSystem>(
     );
     system.row_weights(&mut sc.weights);
     sc.history.clear();
+    sc.factored = false;
     // Residual and Jacobian together: a start is rarely converged already (trajectory
     // steps never are), and a separate residual would cost a primal integration per solve.
     system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
     let mut evaluations = 1;
+    let mut jacobians = 1;
     let mut iterations = 0;
     let mut norm = sc.r.norm();
     sc.history.push(norm);
     let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut radius = 0.0;
     let mut successes = 0usize;
+    // Whether the next trial is expected to contract well (then its Jacobian is not needed).
+    let mut contracting = true;
     let not_converged = |iterations, norm, reason| SolveError::NotConverged {
         iterations,
         residual_norm: norm,
@@ -200,35 +241,42 @@ pub fn solve<S: NonlinearSystem>(
             return Ok(NewtonReport {
                 iterations,
                 residual_evaluations: evaluations,
+                jacobian_evaluations: jacobians,
                 residual_norm: norm,
             });
         }
         if iterations >= settings.max_iterations {
             return Err(not_converged(iterations, norm, "iteration limit reached"));
         }
-        // Weighted Jacobian rows, column scaling, gradient, Newton step.
-        for i in 0..n {
-            let w = sc.weights[i];
-            for j in 0..n {
-                sc.jac[(i, j)] *= w;
+        if !sc.factored {
+            // A fresh Jacobian: weight its rows, update the column scaling, factor it.
+            for i in 0..n {
+                let w = sc.weights[i];
+                for j in 0..n {
+                    sc.jac[(i, j)] *= w;
+                }
             }
-            sc.work[i] = sc.r[i] * w;
-        }
-        for j in 0..n {
-            let c = sc.jac.column(j).norm();
-            let c = if c > 0.0 { c } else { 1.0 };
-            sc.diag[j] = if iterations == 0 {
-                c
-            } else {
-                sc.diag[j].max(c)
-            };
+            for j in 0..n {
+                let c = sc.jac.column(j).norm();
+                let c = if c > 0.0 { c } else { 1.0 };
+                sc.diag[j] = if iterations == 0 {
+                    c
+                } else {
+                    sc.diag[j].max(c)
+                };
+            }
+            sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+            sc.factored = true;
         }
         if iterations == 0 {
             let dx = scaled_norm(x, &sc.diag);
             radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
         }
+        for i in 0..n {
+            sc.work[i] = sc.r[i] * sc.weights[i];
+        }
         sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
-        let newton_ok = sc.lu.factor(&sc.jac).is_ok() && {
+        let newton_ok = sc.newton_ok && {
             sc.newton_step.copy_from(&sc.work);
             sc.newton_step.neg_mut();
             sc.lu.solve_in_place(&mut sc.newton_step);
@@ -261,9 +309,12 @@ pub fn solve<S: NonlinearSystem>(
         };
         let s_len = g_scaled_sq.sqrt();
         // Inner loop: shrink the region until a step is accepted.
-        loop {
+        let mut rejected = false;
+        let (trial_jacobian, full_newton) = loop {
+            let mut full_newton = false;
             if newton_ok && newton_len <= radius {
                 sc.step.copy_from(&sc.newton_step);
+                full_newton = true;
             } else if cauchy_t * s_len >= radius || !newton_ok {
                 let scale = if s_len > 0.0 {
                     radius.min(cauchy_t * s_len) / s_len
@@ -295,6 +346,7 @@ pub fn solve<S: NonlinearSystem>(
             let alpha = system.step_limit(x, &sc.step);
             if alpha < 1.0 {
                 sc.step.scale_mut(alpha);
+                full_newton = false;
             }
             let step_len = scaled_norm(&sc.step, &sc.diag);
             // Predicted reduction of the weighted merit from the linear model.
@@ -309,7 +361,16 @@ pub fn solve<S: NonlinearSystem>(
             let predicted = merit - predicted_sq;
             system.retract(x, &sc.step, &mut sc.x_trial);
             evaluations += 1;
-            let actual = match system.residual(&sc.x_trial, &mut sc.r_trial) {
+            // A Jacobian at the trial only where one will be needed and the trial is likely
+            // to be accepted (not after a rejection in this iteration).
+            let with_jacobian = !contracting && !rejected;
+            let evaluated = if with_jacobian {
+                jacobians += 1;
+                system.residual_and_jacobian(&sc.x_trial, &mut sc.r_trial, &mut sc.jac_trial)
+            } else {
+                system.residual(&sc.x_trial, &mut sc.r_trial)
+            };
+            let actual = match evaluated {
                 Ok(()) if sc.r_trial.iter().all(|v| v.is_finite()) => {
                     merit - weighted_norm_sq(&sc.r_trial, &sc.weights)
                 }
@@ -321,25 +382,33 @@ pub fn solve<S: NonlinearSystem>(
                 -1.0
             };
             // MINPACK's update: halve on a poor step; expand to twice the step after a
-            // good one or after two acceptable ones in a row.
+            // good one or after two acceptable ones in a row, and (ours) to four times
+            // after a run of very good ones: the region then recovers in half the
+            // iterations after a collapse (a tendon pair switching sides: 16 -> 12).
             if ratio < 0.1 {
                 successes = 0;
                 radius = 0.5 * radius.min(step_len);
             } else {
                 successes += 1;
                 if ratio >= 0.5 || successes > 1 {
-                    radius = radius.max(2.0 * step_len);
+                    let grow = if ratio > 0.9 && successes > 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
+                    radius = radius.max(grow * step_len);
                 }
             }
             if ratio > 1e-4 && actual > 0.0 {
                 x.copy_from(&sc.x_trial);
-                break;
+                break (with_jacobian, full_newton);
             }
             // A rejected step whose residual is already within tolerance still counts.
             if actual.is_finite() && sc.r_trial.norm() <= settings.tolerance {
                 x.copy_from(&sc.x_trial);
-                break;
+                break (with_jacobian, full_newton);
             }
+            rejected = true;
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
                 return Err(not_converged(
                     iterations,
@@ -347,17 +416,27 @@ pub fn solve<S: NonlinearSystem>(
                     "trust region collapsed (no further progress)",
                 ));
             }
-        }
+        };
         iterations += 1;
         sc.r.copy_from(&sc.r_trial);
         norm = sc.r.norm();
         sc.history.push(norm);
+        let new_merit = weighted_norm_sq(&sc.r, &sc.weights);
+        contracting = full_newton && new_merit <= settings.chord_contraction.powi(2) * merit;
+        merit = new_merit;
         if norm <= settings.tolerance {
             continue; // converged: reported at the top of the loop, no Jacobian needed
         }
-        evaluations += 1;
-        system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
-        merit = weighted_norm_sq(&sc.r, &sc.weights);
+        if trial_jacobian {
+            std::mem::swap(&mut sc.jac, &mut sc.jac_trial);
+            sc.factored = false;
+        } else if !contracting {
+            evaluations += 1;
+            jacobians += 1;
+            system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+            sc.factored = false;
+        }
+        // Otherwise a chord step: the factorized Jacobian is kept.
     }
 }
 

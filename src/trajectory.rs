@@ -129,15 +129,15 @@ pub fn poses_from_rows(rows: &[Vec<f64>]) -> Vec<Pose> {
 }
 
 /// Solves every target in order, each step warm-started from the last converged state
-/// (the first from a cold start). A failed step is recorded and the next one starts from
-/// the last converged state.
+/// (the first from a cold start), which lets the solver predict the step from its exact
+/// Jacobian there. A failed step is recorded and the next one starts from the last
+/// converged state.
 pub fn run_trajectory(
     solver: &mut Solver,
     targets: &Targets,
     extra: &Wrench,
 ) -> (Vec<StepResult>, Stats) {
     let mut state: Option<RobotState> = None;
-    let mut previous: Option<RobotState> = None;
     let mut steps = Vec::new();
     let count = match targets {
         Targets::Poses(p) => p.len(),
@@ -145,20 +145,11 @@ pub fn run_trajectory(
     };
     for step in 0..count {
         let start = std::time::Instant::now();
-        // Secant predictor: extrapolate the last two consecutive solutions.
-        let guess = match (&state, &previous) {
-            (Some(s), Some(p)) => Some(extrapolate(p, s)),
-            (s, _) => s.clone(),
+        // Warm start from the last solution: the solver predicts from its Jacobian there.
+        let result = match targets {
+            Targets::Poses(p) => solver.solve_ik(&p[step], extra, state.as_ref()),
+            Targets::Actuations(q) => solver.solve_fk(&q[step], extra, state.as_ref()),
         };
-        let mut solve = |init: Option<&RobotState>| match targets {
-            Targets::Poses(p) => solver.solve_ik(&p[step], extra, init),
-            Targets::Actuations(q) => solver.solve_fk(&q[step], extra, init),
-        };
-        let mut result = solve(guess.as_ref());
-        if result.is_err() && previous.is_some() {
-            // The prediction misled Newton: start again from the last solution itself.
-            result = solve(state.as_ref());
-        }
         let elapsed = start.elapsed().as_secs_f64() * 1e6;
         steps.push(match result {
             Ok(sol) => {
@@ -172,12 +163,10 @@ pub fn run_trajectory(
                     residual_norm: sol.report.residual_norm,
                     solve_time_us: sol.solve_time_us,
                 };
-                previous = state.take();
                 state = Some(sol.state);
                 r
             }
             Err(e) => {
-                previous = None;
                 let (iterations, residual_norm) = match &e {
                     Error::Solve(crate::SolveError::NotConverged {
                         iterations,
@@ -215,21 +204,6 @@ pub fn run_trajectory(
     }
     let stats = stats_of(&steps);
     (steps, stats)
-}
-
-/// The secant prediction 2 b − a from two consecutive solutions a, b, for every unknown
-/// (the rotation vector extrapolated component-wise: steps are small).
-pub fn extrapolate(a: &RobotState, b: &RobotState) -> RobotState {
-    let lin =
-        |x: &[f64], y: &[f64]| -> Vec<f64> { x.iter().zip(y).map(|(x, y)| 2.0 * y - x).collect() };
-    let arr =
-        |x: &[f64; 3], y: &[f64; 3]| [2.0 * y[0] - x[0], 2.0 * y[1] - x[1], 2.0 * y[2] - x[2]];
-    RobotState {
-        position: arr(&a.position, &b.position),
-        rotvec: arr(&a.rotvec, &b.rotvec),
-        q: lin(&a.q, &b.q),
-        y_u: lin(&a.y_u, &b.y_u),
-    }
 }
 
 fn stats_of(steps: &[StepResult]) -> Stats {

@@ -147,10 +147,21 @@ fn warm_newton_converges_quadratically() {
     let mut s = solver("lilge2022.ron");
     let w = Wrench::default();
     let home = s.solve_fk(&[0.0; 6], &w, None).unwrap();
-    // A 0.1 mm translation and 0.05 mm tendon step from the home solution.
+    // A 0.1 mm translation and 0.05 mm tendon step from the home solution, by plain
+    // Newton (a Jacobian at every iterate) from the unpredicted start (a second solver,
+    // which has not solved home itself).
     let q = [0.00005, 0.0001, 0.0, 0.0, 0.0, 0.0];
+    let mut s = solver("lilge2022.ron");
+    s.settings.chord_contraction = 0.0;
     let sol = s.solve_fk(&q, &w, Some(&home.state)).unwrap();
     let h = s.residual_history().to_vec();
+    // A Jacobian at every iterate (the start and each accepted step but the last, whose
+    // trial may carry one too).
+    assert!(
+        sol.report.jacobian_evaluations >= sol.report.iterations,
+        "{:?}",
+        sol.report
+    );
     eprintln!("residual history {h:?}");
     assert!(
         sol.report.iterations >= 2 && sol.report.iterations <= 6,
@@ -168,6 +179,50 @@ fn warm_newton_converges_quadratically() {
         }
     }
     assert!(checked >= 1, "no step to check in {h:?}");
+}
+
+/// A warm step from the solver's own last solution starts from the tangent prediction
+/// and finishes with chord steps: one Jacobian evaluation, and the same solution as plain
+/// Newton from the unpredicted start.
+#[test]
+fn warm_steps_from_the_last_solution_are_predicted() {
+    let w = Wrench::default();
+    let mut s = solver("lilge2022.ron");
+    let mut state = s.solve_fk(&[0.0; 6], &w, None).unwrap().state;
+    let mut plain = solver("lilge2022.ron");
+    plain.settings.chord_contraction = 0.0;
+    for k in 1..=4 {
+        let mut pose = state.pose();
+        pose.position += Vector3::new(0.001, -0.0005, 0.0002 * k as f64);
+        pose.rotation = *Rotation3::new(Vector3::new(0.0, 0.01, 0.0)).matrix() * pose.rotation;
+        let predicted = s.solve_ik(&pose, &w, Some(&state)).unwrap();
+        let reference = plain.solve_ik(&pose, &w, Some(&state)).unwrap();
+        if k > 1 {
+            // (The first IK step follows an FK solve: no IK linearization to predict from.)
+            assert_eq!(
+                predicted.report.jacobian_evaluations, 1,
+                "{:?}",
+                predicted.report
+            );
+            assert!(
+                predicted.report.residual_evaluations < reference.report.residual_evaluations
+                    || predicted.report.jacobian_evaluations
+                        < reference.report.jacobian_evaluations,
+                "{:?} vs {:?}",
+                predicted.report,
+                reference.report
+            );
+        }
+        let dq = predicted
+            .state
+            .q
+            .iter()
+            .zip(&reference.state.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(dq < 1e-10, "step {k}: q differs by {dq:.2e} m");
+        state = predicted.state;
+    }
 }
 
 #[test]

@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::rod::model::{Frame, LegModel};
-use crate::rod::rhs::{RodState, Stage};
+use crate::rod::rhs::{RkEmit, RodState, Stage};
 pub use crate::rod::tangents::MAX_DIRECTIONS;
 use crate::rod::tangents::Tangents;
 
@@ -114,13 +114,15 @@ impl LegShape {
 pub struct LegScratch {
     stage: Stage,
     y: RodState,
+    y_next: RodState,
     y_stage: RodState,
-    acc: RodState,
     k: RodState,
-    dk: Box<Tangents>,
+    /// Tangents at the start of the step, the step's running sum, and the inputs of the
+    /// current and the next RK stage (two buffers, swapped after each stage).
     dy: Box<Tangents>,
+    dy_next: Box<Tangents>,
     dy_stage: Box<Tangents>,
-    dacc: Box<Tangents>,
+    dy_stage_next: Box<Tangents>,
 }
 
 impl LegScratch {
@@ -130,13 +132,13 @@ impl LegScratch {
         Self {
             stage: Stage::new(),
             y: z,
+            y_next: z,
             y_stage: z,
-            acc: z,
             k: z,
-            dk: Box::new(Tangents::zeros(0)),
-            dy: Box::new(Tangents::zeros(0)),
-            dy_stage: Box::new(Tangents::zeros(0)),
-            dacc: Box::new(Tangents::zeros(0)),
+            dy: Box::new(Tangents::zeros()),
+            dy_next: Box::new(Tangents::zeros()),
+            dy_stage: Box::new(Tangents::zeros()),
+            dy_stage_next: Box::new(Tangents::zeros()),
         }
     }
 }
@@ -198,7 +200,58 @@ pub fn integrate_leg_with_sensitivities(
     integrate(model, start, scratch, end, Some(sens), shape)
 }
 
+/// Runs the integration, with AVX2 code where the CPU has it (detected at run time; the
+/// same operations in the same order, so the results are bitwise identical either way).
 fn integrate(
+    model: &LegModel,
+    start: &LegStart,
+    sc: &mut LegScratch,
+    end: &mut LegEnd,
+    sens: Option<&mut LegSensitivities>,
+    shape: Option<&mut LegShape>,
+) -> Result<(), SolveError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked just above.
+        return unsafe { integrate_avx2(model, start, sc, end, sens, shape) };
+    }
+    integrate_dispatch(model, start, sc, end, sens, shape)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn integrate_avx2(
+    model: &LegModel,
+    start: &LegStart,
+    sc: &mut LegScratch,
+    end: &mut LegEnd,
+    sens: Option<&mut LegSensitivities>,
+    shape: Option<&mut LegShape>,
+) -> Result<(), SolveError> {
+    integrate_dispatch(model, start, sc, end, sens, shape)
+}
+
+/// Picks the lane count N ≥ the directions used (0: primal only): 8 covers a leg with
+/// one tendon pair, 10 two pairs.
+#[inline(always)]
+fn integrate_dispatch(
+    model: &LegModel,
+    start: &LegStart,
+    sc: &mut LegScratch,
+    end: &mut LegEnd,
+    sens: Option<&mut LegSensitivities>,
+    shape: Option<&mut LegShape>,
+) -> Result<(), SolveError> {
+    match sens.as_ref().map_or(0, |s| s.directions) {
+        0 => integrate_lanes::<0>(model, start, sc, end, None, shape),
+        1..=8 => integrate_lanes::<8>(model, start, sc, end, sens, shape),
+        9..=10 => integrate_lanes::<10>(model, start, sc, end, sens, shape),
+        _ => integrate_lanes::<MAX_DIRECTIONS>(model, start, sc, end, sens, shape),
+    }
+}
+
+#[inline(always)]
+fn integrate_lanes<const N: usize>(
     model: &LegModel,
     start: &LegStart,
     sc: &mut LegScratch,
@@ -207,6 +260,7 @@ fn integrate(
     mut shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
     let nd = sens.as_ref().map_or(0, |s| s.directions);
+    let nt = model.n_tendons;
     let tau = &start.tensions;
     sc.y = RodState {
         p: start.base.position,
@@ -215,7 +269,9 @@ fn integrate(
         u: start.u0,
         s: [0.0; MAX_TENDONS],
     };
-    sc.dy.set_initial(nd);
+    if N > 0 {
+        sc.dy.set_initial::<N>(nt);
+    }
     if let Some(shape) = shape.as_deref_mut() {
         shape.clear();
         shape.push(0.0, &sc.y);
@@ -223,10 +279,10 @@ fn integrate(
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
         for _ in 0..iv.steps {
-            rk4_step(model, sc, tau, iv.active, h, nd)?;
+            rk4_step::<N>(model, sc, tau, iv.active, h, nd)?;
         }
         if iv.terminating != 0 {
-            apply_tendon_ends(model, sc, tau, iv.terminating, nd);
+            apply_tendon_ends::<N>(model, sc, tau, iv.terminating, nd);
         }
         if let (Some(shape), Some(_)) = (shape.as_deref_mut(), iv.disk) {
             shape.push(iv.end, &sc.y);
@@ -260,7 +316,7 @@ fn integrate(
             let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
             let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
             let mut lengths = [0.0; MAX_TENDONS];
-            for k in 0..model.n_tendons {
+            for k in 0..nt {
                 lengths[k] = dy.s[k][j];
             }
             *d = LegEnd {
@@ -275,8 +331,11 @@ fn integrate(
     Ok(())
 }
 
-/// One classical RK4 step of size `h` for the state and all `nd` tangents.
-fn rk4_step(
+/// One classical RK4 step of size `h` for the state and the `N` tangent lanes.
+/// The next state accumulates y + h Σ b_i k_i stage by stage; intermediate stages carry
+/// only R, v, u (p and s do not feed back).
+#[inline(always)]
+fn rk4_step<const N: usize>(
     model: &LegModel,
     sc: &mut LegScratch,
     tau: &[f64; MAX_TENDONS],
@@ -285,44 +344,44 @@ fn rk4_step(
     nd: usize,
 ) -> Result<(), SolveError> {
     let nt = model.n_tendons;
-    // (weight in the sum, offset of the next stage)
+    // (weight b_i, offset c_(i+1) of the next stage)
     const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
-    sc.y_stage = sc.y;
-    if nd > 0 {
-        sc.dy_stage.assign(&sc.dy, nt);
-    }
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
-        sc.stage.eval(model, &sc.y_stage, tau, active, &mut sc.k)?;
+        let input = if i == 0 { &sc.y } else { &sc.y_stage };
+        sc.stage.eval(model, input, tau, active, &mut sc.k)?;
+        let b = weight * h / 6.0;
         if i == 0 {
-            sc.acc = sc.k;
-        } else {
-            sc.acc.axpy(weight, &sc.k, nt);
+            sc.y_next = sc.y;
         }
+        sc.y_next.axpy(b, &sc.k, nt);
         if i < 3 {
-            sc.y_stage.set_axpy(&sc.y, next * h, &sc.k, nt);
+            sc.y_stage.set_stage(&sc.y, next * h, &sc.k);
         }
-        if nd > 0 {
-            sc.stage.tangents(model, &sc.dy_stage, &mut sc.dk);
-            if i == 0 {
-                sc.dacc.assign(&sc.dk, nt);
-            } else {
-                sc.dacc.axpy(weight, &sc.dk, nt);
-            }
-            if i < 3 {
-                sc.dy_stage.set_axpy(&sc.dy, next * h, &sc.dk, nt);
-            }
+        if N > 0 {
+            sc.stage.linearize(model, nd);
+            let d_input = if i == 0 { &*sc.dy } else { &*sc.dy_stage };
+            let mut emit = RkEmit {
+                base: &sc.dy,
+                sum: &mut sc.dy_next,
+                weight: b,
+                first: i == 0,
+                next: (i < 3).then_some((&mut *sc.dy_stage_next, next * h)),
+            };
+            sc.stage.tangents::<N>(model, d_input, &mut emit);
+            std::mem::swap(&mut sc.dy_stage, &mut sc.dy_stage_next);
         }
     }
-    sc.y.axpy(h / 6.0, &sc.acc, nt);
-    if nd > 0 {
-        sc.dy.axpy(h / 6.0, &sc.dacc, nt);
+    std::mem::swap(&mut sc.y, &mut sc.y_next);
+    if N > 0 {
+        std::mem::swap(&mut sc.dy, &mut sc.dy_next);
     }
     Ok(())
 }
 
 /// The strain jumps where tendons end (MODEL.md §2): n⁺ = n⁻ + τ R t, m⁺ = m⁻ + τ R (r × t),
 /// with every t taken before the jumps; and their tangents.
-fn apply_tendon_ends(
+#[inline(always)]
+fn apply_tendon_ends<const N: usize>(
     model: &LegModel,
     sc: &mut LegScratch,
     tau: &[f64; MAX_TENDONS],
@@ -330,14 +389,13 @@ fn apply_tendon_ends(
     nd: usize,
 ) {
     let y = sc.y;
-    let nt = model.n_tendons;
     // Pre-jump tangents (dy_stage is free between steps).
-    if nd > 0 {
-        sc.dy_stage.assign(&sc.dy, nt);
+    if N > 0 {
+        sc.dy_stage.set_stage::<N>(&sc.dy, 0.0, &sc.dy);
     }
     let inv_se = model.k_se.map(|x| 1.0 / x);
     let inv_bt = model.k_bt.map(|x| 1.0 / x);
-    for k in 0..nt {
+    for k in 0..model.n_tendons {
         if ending & (1 << k) == 0 {
             continue;
         }
@@ -345,22 +403,97 @@ fn apply_tendon_ends(
         let w = y.v + y.u.cross(r_k);
         let len = w.norm();
         let t = w / len;
+        let rt = r_k.cross(&t);
         sc.y.v += inv_se.component_mul(&t) * tau[k];
-        sc.y.u += inv_bt.component_mul(&r_k.cross(&t)) * tau[k];
-        let pre = &sc.dy_stage;
-        for j in 0..nd {
+        sc.y.u += inv_bt.component_mul(&rt) * tau[k];
+        let (pre, dy) = (&sc.dy_stage, &mut sc.dy);
+        for j in 0..N {
             let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
             let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
             let dw = dv + du.cross(r_k);
-            let dt = (dw - t * t.dot(&dw)) / len;
-            let dtau = if j == 6 + k { 1.0 } else { 0.0 };
-            let dforce = t * dtau + dt * tau[k];
+            let dforce = (dw - t * t.dot(&dw)) * (tau[k] / len);
             let jump_v = inv_se.component_mul(&dforce);
             let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
             for c in 0..3 {
-                sc.dy.v[c][j] += jump_v[c];
-                sc.dy.u[c][j] += jump_u[c];
+                dy.v[c][j] += jump_v[c];
+                dy.u[c][j] += jump_u[c];
             }
         }
+        // The tension direction of tendon k: ∂(τ t)/∂τ = t.
+        if 6 + k < nd {
+            let (jump_v, jump_u) = (inv_se.component_mul(&t), inv_bt.component_mul(&rt));
+            for c in 0..3 {
+                dy.v[c][6 + k] += jump_v[c];
+                dy.u[c][6 + k] += jump_u[c];
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::{Disks, Leg, Tendon};
+
+    fn leg() -> LegModel {
+        let tendon = |angle: f64, end: f64| Tendon {
+            angle,
+            offset: 0.005,
+            end,
+        };
+        let leg = Leg {
+            length: 0.145,
+            backbone_radius: 0.0005,
+            youngs_modulus: 54e9,
+            poisson_ratio: 0.3,
+            backbone_mass: 0.0012,
+            disks: Disks {
+                count: 13,
+                mass: 0.0003,
+                radius: 0.006,
+            },
+            tendon_stiffness: 1000.0,
+            tendons: vec![
+                tendon(0.0, 0.145),
+                tendon(std::f64::consts::PI, 0.145),
+                tendon(1.0, 0.08),
+            ],
+            integration_steps: crate::design::DEFAULT_INTEGRATION_STEPS,
+        };
+        LegModel::new(&leg, Vector3::new(0.5, 0.0, -9.81))
+    }
+
+    /// The AVX2 path (where the CPU has it) and the portable path give bitwise equal tips
+    /// and sensitivities: the lane count and instruction set change nothing numerically.
+    #[test]
+    fn every_code_path_gives_bitwise_identical_results() {
+        let model = leg();
+        let mut tensions = [0.0; MAX_TENDONS];
+        tensions[0] = 3.2;
+        tensions[2] = 0.4;
+        let start = LegStart {
+            base: Frame::identity(),
+            u0: Vector3::new(0.3, 6.0, -0.1),
+            v0: Vector3::new(1e-5, 0.0, 0.99992),
+            tensions,
+        };
+        let run = |portable: bool, directions: usize| {
+            let mut sc = LegScratch::new();
+            let mut end = LegEnd::zeros();
+            let mut sens = LegSensitivities::new(directions);
+            if portable {
+                integrate_dispatch(&model, &start, &mut sc, &mut end, Some(&mut sens), None)
+            } else {
+                integrate(&model, &start, &mut sc, &mut end, Some(&mut sens), None)
+            }
+            .unwrap();
+            (end, sens.d)
+        };
+        let reference = run(true, 9);
+        assert_eq!(run(false, 9), reference);
+        // Strains only: the same tip and the same first six directions.
+        let (end, d) = run(true, 6);
+        assert_eq!(end, reference.0);
+        assert_eq!(d[..6], reference.1[..6]);
     }
 }

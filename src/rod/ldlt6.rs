@@ -26,20 +26,21 @@ impl Ldlt6 {
         }
     }
 
-    /// Factors \[A Bᵀ; B C\] (A, C symmetric). `None` unless A and the Schur complement are
-    /// invertible with finite inverses (they are positive definite for τ ≥ 0).
-    #[inline]
+    /// Factors \[A Bᵀ; B C\] (A, C symmetric; only their upper triangles are read).
+    /// `None` unless A and the Schur complement S = C − B A⁻¹ Bᵀ are positive on the
+    /// diagonal and have finite inverses (both are positive definite for τ ≥ 0).
+    #[inline(always)]
     pub fn factor_blocks(a: &Matrix3<f64>, b: &Matrix3<f64>, c: &Matrix3<f64>) -> Option<Self> {
-        let a_inv = a.try_inverse()?;
+        let a_inv = symmetric_inverse(a)?;
         let x = b * a_inv;
-        let s = c - x * b.transpose();
-        let s_inv = s.try_inverse()?;
-        if !(a_inv.iter().chain(s_inv.iter()).all(|v| v.is_finite()))
-            || s[(0, 0)] <= 0.0
-            || a[(0, 0)] <= 0.0
-        {
-            return None;
+        // S = C − X Bᵀ (symmetric: the upper triangle suffices).
+        let mut s = *c;
+        for i in 0..3 {
+            for j in i..3 {
+                s[(i, j)] -= x[(i, 0)] * b[(j, 0)] + x[(i, 1)] * b[(j, 1)] + x[(i, 2)] * b[(j, 2)];
+            }
         }
+        let s_inv = symmetric_inverse(&s)?;
         Some(Self {
             a_inv,
             x,
@@ -70,19 +71,62 @@ impl Ldlt6 {
         [x1.x, x1.y, x1.z, x2.x, x2.y, x2.z]
     }
 
-    /// Solves M x = b for `n` right-hand sides stored by component (`b[row][rhs]`).
-    #[inline]
-    pub fn solve_lanes<const N: usize>(&self, b: &mut [[f64; N]; 6], n: usize) {
-        for j in 0..n {
-            let b1 = Vector3::new(b[0][j], b[1][j], b[2][j]);
-            let b2 = Vector3::new(b[3][j], b[4][j], b[5][j]);
-            let (x1, x2) = self.solve_blocks(&b1, &b2);
-            for c in 0..3 {
-                b[c][j] = x1[c];
-                b[3 + c][j] = x2[c];
+    /// Solves M x = b in place for `N` right-hand sides stored by component (`b[row][rhs]`).
+    #[inline(always)]
+    pub fn solve_lanes<const N: usize>(&self, b: &mut [[f64; N]; 6]) {
+        let (x, s_inv, b_mat, a_inv) = (&self.x, &self.s_inv, &self.b, &self.a_inv);
+        let mut t = [[0.0; N]; 3];
+        for (c, t_row) in t.iter_mut().enumerate() {
+            for j in 0..N {
+                t_row[j] =
+                    b[3 + c][j] - x[(c, 0)] * b[0][j] - x[(c, 1)] * b[1][j] - x[(c, 2)] * b[2][j];
+            }
+        }
+        // x2 = S⁻¹ (b2 − X b1)
+        for c in 0..3 {
+            for j in 0..N {
+                b[3 + c][j] =
+                    s_inv[(c, 0)] * t[0][j] + s_inv[(c, 1)] * t[1][j] + s_inv[(c, 2)] * t[2][j];
+            }
+        }
+        // x1 = A⁻¹ (b1 − Bᵀ x2)
+        for (c, t_row) in t.iter_mut().enumerate() {
+            for j in 0..N {
+                t_row[j] = b[c][j]
+                    - b_mat[(0, c)] * b[3][j]
+                    - b_mat[(1, c)] * b[4][j]
+                    - b_mat[(2, c)] * b[5][j];
+            }
+        }
+        for c in 0..3 {
+            for j in 0..N {
+                b[c][j] =
+                    a_inv[(c, 0)] * t[0][j] + a_inv[(c, 1)] * t[1][j] + a_inv[(c, 2)] * t[2][j];
             }
         }
     }
+}
+
+/// The inverse of a symmetric 3×3 matrix from its upper triangle, by cofactors; `None`
+/// unless its first pivot and determinant are positive and the inverse is finite.
+#[inline(always)]
+fn symmetric_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let (a, b, c) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
+    let (d, e, f) = (m[(1, 1)], m[(1, 2)], m[(2, 2)]);
+    let c00 = d * f - e * e;
+    let c01 = c * e - b * f;
+    let c02 = b * e - c * d;
+    let det = a * c00 + b * c01 + c * c02;
+    if !(a > 0.0 && det > 0.0) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let (i00, i01, i02) = (c00 * inv, c01 * inv, c02 * inv);
+    let i11 = (a * f - c * c) * inv;
+    let i12 = (b * c - a * e) * inv;
+    let i22 = (a * d - b * b) * inv;
+    let out = Matrix3::new(i00, i01, i02, i01, i11, i12, i02, i12, i22);
+    out.iter().all(|v| v.is_finite()).then_some(out)
 }
 
 #[cfg(test)]
@@ -126,7 +170,7 @@ mod tests {
             }
         }
         let mut solved = lanes;
-        f.solve_lanes(&mut solved, 3);
+        f.solve_lanes(&mut solved);
         for j in 0..3 {
             let single = f.solve([
                 lanes[0][j],

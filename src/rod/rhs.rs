@@ -1,18 +1,28 @@
 //! The rod ODE right-hand side (MODEL.md §2, eqs. 3–8) and its tangent (variational
-//! equation), sharing one Cholesky factorization of the 6×6 strain system.
+//! equation), sharing one factorization of the 6×6 strain system.
 //!
 //! Body-frame strains v, u are state variables. With tendon k at offset r_k, tension τ_k,
 //! path tangent w_k = v + u × r_k, ℓ_k = |w_k|, t_k = w_k / ℓ_k, the tendon matrix of eq. (5)
 //! is A_k = −τ_k ŵ_k² / ℓ_k³ = c_k (I − t_k t_kᵀ) with c_k = τ_k / ℓ_k, and the strain
-//! system reads, with P_k = \[I, −r̂_k\]:
+//! system reads, with P_k = \[I, −r̂_k\] (so P_kᵀ = \[I; r̂_k\]):
 //!
-//! (K + Σ_k P_kᵀ A_k P_k) \[v'; u'\] = [−u × K_se(v − e_z) − Rᵀ f − Σ a_k;
-//!                                    −u × K_bt u − v × K_se(v − e_z) − Σ r_k × a_k],
+//! g(state, x) = K x + Σ_k P_kᵀ A_k y_k + [u × n_b + Rᵀ f; u × m_b + v × n_b] = 0,
 //!
-//! a_k = A_k (u × w_k). The matrix is symmetric positive definite for τ ≥ 0, so it is
-//! factored by Cholesky. Writing the system as g(state, x) = 0 with x = \[v'; u'\], the
-//! tangent is dx = −M⁻¹ ∂g/∂state · dstate, where every tendon enters through
-//! F_k = A_k y_k, y_k = v' + u' × r_k + u × w_k.
+//! x = \[v'; u'\], y_k = P_k x + u × w_k, n_b = K_se (v − e_z), m_b = K_bt u. Its matrix
+//! M = K + Σ_k P_kᵀ A_k P_k is symmetric positive definite for τ ≥ 0.
+//!
+//! **Tangent.** Differentiating g at fixed x gives M dx = −b with
+//! b = \[e; 0\] + H_v dv + H_u du + Σ_k P_kᵀ (q_k / ℓ_k) dτ_k, e = dRᵀ f, where
+//! (with q_k = y_k − t_k (t_k · y_k))
+//! - d(A_k y_k) = (dτ_k/ℓ_k) q_k − T_k dw_k, T_k = (c_k/ℓ_k)(q_k t_kᵀ + t_k q_kᵀ + (t_k·y_k)(I − t_k t_kᵀ)),
+//! - d(A_k (u × w_k)) = A_k (û dw_k − ŵ_k du), dw_k = dv − r̂_k du,
+//! - so tendon k adds P_kᵀ N_k to H_v and P_kᵀ (−N_k r̂_k − A_k ŵ_k) to H_u, N_k = A_k û − T_k;
+//! - the backbone adds \[û K_se; −n̂_b + v̂ K_se\] to H_v and \[−n̂_b; −m̂_b + û K_bt\] to H_u.
+//!
+//! H_v, H_u (6×3 each) are built once per evaluation ([`Stage::linearize`]); every
+//! sensitivity direction then costs two small matrix–vector products and one solve with
+//! the stored factorization, done for all directions at once in structure-of-arrays lanes
+//! ([`Stage::tangents`]).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -20,10 +30,10 @@ use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::model::LegModel;
-use crate::rod::tangents::{MAX_DIRECTIONS, Tangents};
+use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
 
-/// The rod state (or its derivative, or a tangent): position p \[m\], rotation R, strains
-/// v, u \[–, 1/m\] and tendon path lengths s_k \[m\].
+/// The rod state (or its derivative): position p \[m\], rotation R, strains v, u
+/// \[–, 1/m\] and tendon path lengths s_k \[m\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RodState {
     /// Backbone position p (world frame).
@@ -50,16 +60,13 @@ impl RodState {
         }
     }
 
-    /// self = y + a·k, over the first `nt` tendon lengths.
+    /// self = y + a·k for the parts that feed back into the right-hand side (R, v, u):
+    /// an intermediate RK stage needs no p or s.
     #[inline]
-    pub fn set_axpy(&mut self, y: &Self, a: f64, k: &Self, nt: usize) {
-        self.p = y.p + k.p * a;
+    pub fn set_stage(&mut self, y: &Self, a: f64, k: &Self) {
         self.r = y.r + k.r * a;
         self.v = y.v + k.v * a;
         self.u = y.u + k.u * a;
-        for i in 0..nt {
-            self.s[i] = y.s[i] + a * k.s[i];
-        }
     }
 
     /// self += a·k, over the first `nt` tendon lengths.
@@ -92,24 +99,23 @@ pub fn times_hat(m: &Matrix3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
     ])
 }
 
-/// Per-tendon quantities of one evaluation, kept for the tangent.
+/// Per-tendon quantities of one evaluation, kept for the linearization.
 #[derive(Debug, Clone, Copy)]
 struct TendonPoint {
+    /// Path tangent w = v + u × r (body frame).
     w: Vector3<f64>,
+    /// ℓ = |w|.
     len: f64,
+    /// t = w / ℓ.
     t: Vector3<f64>,
-    /// c = τ / ℓ \[N/m\].
+    /// r × t: d ℓ = t · dv + (r × t) · du.
+    rt: Vector3<f64>,
+    /// c = τ / ℓ \[N\].
     c: f64,
-    /// y = v' + u' × r + u × w.
-    y: Vector3<f64>,
-    /// t · y.
-    ty: f64,
-    /// y − t (t · y), so that A y = c q.
-    q: Vector3<f64>,
 }
 
-/// One evaluation of the right-hand side: the point, its factorization and what the
-/// tangent reuses.
+/// One evaluation of the right-hand side: the point, its factorization and, after
+/// [`Stage::linearize`], the linear map every tangent direction goes through.
 #[derive(Debug, Clone)]
 pub struct Stage {
     r: Matrix3<f64>,
@@ -119,9 +125,16 @@ pub struct Stage {
     n_body: Vector3<f64>,
     /// K_bt u: body-frame internal moment \[N·m\].
     m_body: Vector3<f64>,
+    /// The solution x = \[v'; u'\].
+    dv: Vector3<f64>,
+    du: Vector3<f64>,
     factor: Ldlt6,
     tendons: [TendonPoint; MAX_TENDONS],
     active: u32,
+    /// Rows of \[H_v H_u\] (6×6).
+    h: [[f64; 6]; 6],
+    /// Per row, the tension directions' source P_kᵀ q_k / ℓ_k in lane 6 + k (zero elsewhere).
+    inject: [Lanes; 6],
 }
 
 impl Stage {
@@ -131,10 +144,8 @@ impl Stage {
             w: Vector3::zeros(),
             len: 1.0,
             t: Vector3::zeros(),
+            rt: Vector3::zeros(),
             c: 0.0,
-            y: Vector3::zeros(),
-            ty: 0.0,
-            q: Vector3::zeros(),
         };
         Self {
             r: Matrix3::identity(),
@@ -142,18 +153,24 @@ impl Stage {
             u: Vector3::zeros(),
             n_body: Vector3::zeros(),
             m_body: Vector3::zeros(),
+            dv: Vector3::zeros(),
+            du: Vector3::zeros(),
             factor: Ldlt6::identity(),
             tendons: [tp; MAX_TENDONS],
             active: 0,
+            h: [[0.0; 6]; 6],
+            inject: [[0.0; MAX_DIRECTIONS]; 6],
         }
     }
 
     /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` \[N\],
-    /// writing the derivative to `out` and keeping what [`Stage::tangents`] needs.
+    /// writing the derivative of p, R, v, u and s to `out` and keeping what
+    /// [`Stage::linearize`] needs.
     ///
     /// # Errors
     /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not
     /// positive definite (which only a non-finite or absurd state can cause).
+    #[inline(always)]
     pub fn eval(
         &mut self,
         model: &LegModel,
@@ -166,6 +183,7 @@ impl Stage {
         let n_body = model.k_se.component_mul(&(v - Vector3::z()));
         let m_body = model.k_bt.component_mul(&u);
         // M = K + Σ_k P_kᵀ A_k P_k in 3×3 blocks [A Bᵀ; B C]: A_k, r̂A_k, r̂ A_k r̂ᵀ.
+        // A and C are symmetric: only their upper triangles are formed.
         let mut blk_a = Matrix3::from_diagonal(&model.k_se);
         let mut blk_b = Matrix3::zeros();
         let mut blk_c = Matrix3::from_diagonal(&model.k_bt);
@@ -173,6 +191,7 @@ impl Stage {
         let mut rhs_u = -u.cross(&m_body) - v.cross(&n_body);
         for k in 0..model.n_tendons {
             if active & (1 << k) == 0 {
+                out.s[k] = 0.0;
                 continue;
             }
             let r_k = &model.tendon_offsets[k];
@@ -180,25 +199,27 @@ impl Stage {
             let len = w.norm();
             let t = w / len;
             let c = tau[k] / len;
-            // A = c (I − t tᵀ); r̂A = c (r̂ − s tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − s sᵀ), s = r × t.
-            let sv = r_k.cross(&t);
-            blk_a += (Matrix3::identity() - t * t.transpose()) * c;
-            blk_b += (model.tendon_hats[k] - sv * t.transpose()) * c;
-            blk_c += (model.tendon_hat_squares[k] - sv * sv.transpose()) * c;
-            let z = u.cross(&w);
-            let a_z = (z - t * t.dot(&z)) * c;
-            rhs_v -= a_z;
-            rhs_u -= r_k.cross(&a_z);
-            // y and q need x; store z in y for now.
-            self.tendons[k] = TendonPoint {
-                w,
-                len,
-                t,
-                c,
-                y: z,
-                ty: 0.0,
-                q: Vector3::zeros(),
-            };
+            // A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
+            let rt = r_k.cross(&t);
+            if c != 0.0 {
+                let (hat_r, hat_sq) = (&model.tendon_hats[k], &model.tendon_hat_squares[k]);
+                for i in 0..3 {
+                    for j in i..3 {
+                        let id = if i == j { 1.0 } else { 0.0 };
+                        blk_a[(i, j)] += c * (id - t[i] * t[j]);
+                        blk_c[(i, j)] += c * (hat_sq[(i, j)] - rt[i] * rt[j]);
+                    }
+                    for j in 0..3 {
+                        blk_b[(i, j)] += c * (hat_r[(i, j)] - rt[i] * t[j]);
+                    }
+                }
+                let z = u.cross(&w);
+                let a_z = (z - t * t.dot(&z)) * c;
+                rhs_v -= a_z;
+                rhs_u -= r_k.cross(&a_z);
+            }
+            self.tendons[k] = TendonPoint { w, len, t, rt, c };
+            out.s[k] = len;
         }
         let factor = Ldlt6::factor_blocks(&blk_a, &blk_b, &blk_c).ok_or(SolveError::NonFinite {
             stage: "rod strain system (eq. 5)",
@@ -209,17 +230,6 @@ impl Stage {
                 stage: "rod strain derivatives (eq. 5)",
             });
         }
-        for k in 0..model.n_tendons {
-            if active & (1 << k) == 0 {
-                out.s[k] = 0.0;
-                continue;
-            }
-            let tp = &mut self.tendons[k];
-            tp.y += dv + du.cross(&model.tendon_offsets[k]);
-            tp.ty = tp.t.dot(&tp.y);
-            tp.q = tp.y - tp.t * tp.ty;
-            out.s[k] = tp.len;
-        }
         out.p = y.r * v;
         out.r = times_hat(&y.r, &u);
         out.v = dv;
@@ -229,98 +239,284 @@ impl Stage {
         self.u = u;
         self.n_body = n_body;
         self.m_body = m_body;
+        self.dv = dv;
+        self.du = du;
         self.factor = factor;
         self.active = active;
         Ok(())
     }
 
-    /// The tangents of the last [`Stage::eval`] in all directions of `dy` at once:
-    /// direction j ≥ 6 also carries dτ_(j−6) = 1 (the tension directions).
-    pub fn tangents(&self, model: &LegModel, dy: &Tangents, out: &mut Tangents) {
-        let n = dy.n;
-        out.n = n;
-        let (v, u, rot) = (&self.v, &self.u, &self.r);
-        let f = &model.weight_per_length;
-        let (k_se, k_bt) = (&model.k_se, &model.k_bt);
-        let (nb, mb) = (&self.n_body, &self.m_body);
-        let mut g = [[0.0; MAX_DIRECTIONS]; 6];
-        for j in 0..n {
-            let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
-            let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
-            let dr = Matrix3::from_column_slice(&[
-                dy.r[0][j], dy.r[1][j], dy.r[2][j], dy.r[3][j], dy.r[4][j], dy.r[5][j], dy.r[6][j],
-                dy.r[7][j], dy.r[8][j],
-            ]);
-            let k_se_dv = k_se.component_mul(&dv);
-            let k_bt_du = k_bt.component_mul(&du);
-            let g_v = dr.tr_mul(f) + du.cross(nb) + u.cross(&k_se_dv);
-            let g_u = du.cross(mb) + u.cross(&k_bt_du) + dv.cross(nb) + v.cross(&k_se_dv);
-            for c in 0..3 {
-                g[c][j] = g_v[c];
-                g[3 + c][j] = g_u[c];
-            }
-            let dp = dr * v + rot * dv;
-            let d_rot = times_hat(&dr, u) + times_hat(rot, &du);
-            for c in 0..3 {
-                out.p[c][j] = dp[c];
-            }
-            for c in 0..9 {
-                out.r[c][j] = d_rot[c];
+    /// Builds H_v, H_u and the tension sources (module doc) at the last [`Stage::eval`],
+    /// for the first `directions` sensitivity directions.
+    #[inline(always)]
+    pub fn linearize(&mut self, model: &LegModel, directions: usize) {
+        let (u, v, nb, mb) = (&self.u, &self.v, &self.n_body, &self.m_body);
+        let (kse, kbt) = (&model.k_se, &model.k_bt);
+        // Backbone terms, [û K_se, −n̂_b; v̂ K_se − n̂_b, û K_bt − m̂_b], x̂ K = columns of x̂
+        // scaled by the diagonal K.
+        let h = &mut self.h;
+        *h = [
+            [0.0, -u.z * kse.y, u.y * kse.z, 0.0, nb.z, -nb.y],
+            [u.z * kse.x, 0.0, -u.x * kse.z, -nb.z, 0.0, nb.x],
+            [-u.y * kse.x, u.x * kse.y, 0.0, nb.y, -nb.x, 0.0],
+            [
+                0.0,
+                -v.z * kse.y + nb.z,
+                v.y * kse.z - nb.y,
+                0.0,
+                -u.z * kbt.y + mb.z,
+                u.y * kbt.z - mb.y,
+            ],
+            [
+                v.z * kse.x - nb.z,
+                0.0,
+                -v.x * kse.z + nb.x,
+                u.z * kbt.x - mb.z,
+                0.0,
+                -u.x * kbt.z + mb.x,
+            ],
+            [
+                -v.y * kse.x + nb.y,
+                v.x * kse.y - nb.x,
+                0.0,
+                -u.y * kbt.x + mb.y,
+                u.x * kbt.y - mb.x,
+                0.0,
+            ],
+        ];
+        // Tendons that are not running here inject nothing in their tension lane.
+        for k in 0..model.n_tendons.min(directions.saturating_sub(6)) {
+            if self.active & (1 << k) == 0 {
+                for row in self.inject.iter_mut() {
+                    row[6 + k] = 0.0;
+                }
             }
         }
         for k in 0..model.n_tendons {
             if self.active & (1 << k) == 0 {
-                out.s[k][..n].fill(0.0);
                 continue;
             }
             let tp = &self.tendons[k];
-            let r_k = &model.tendon_offsets[k];
-            if tp.c == 0.0 {
-                // A slack tendon loads the rod only through its own tension direction.
-                for j in 0..n {
-                    let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
-                    let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
-                    out.s[k][j] = tp.t.dot(&(dv + du.cross(r_k)));
+            let r = &model.tendon_offsets[k];
+            let y = self.dv + self.du.cross(r) + u.cross(&tp.w);
+            let (t, c, len) = (&tp.t, tp.c, tp.len);
+            let ty = t.dot(&y);
+            let q = y - t * ty;
+            let lane = 6 + k;
+            if lane < directions {
+                let src = q / len;
+                let moment = r.cross(&src);
+                for i in 0..3 {
+                    self.inject[i][lane] = src[i];
+                    self.inject[3 + i][lane] = moment[i];
                 }
-                let own = 6 + k;
-                if own < n {
-                    let df = tp.q / tp.len;
-                    let rdf = r_k.cross(&df);
-                    for c in 0..3 {
-                        g[c][own] += df[c];
-                        g[3 + c][own] += rdf[c];
-                    }
-                }
+            }
+            if c == 0.0 {
                 continue;
             }
-            for j in 0..n {
-                let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
-                let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
-                let dw = dv + du.cross(r_k);
-                let dlen = tp.t.dot(&dw);
-                out.s[k][j] = dlen;
-                let dt = (dw - tp.t * dlen) / tp.len;
-                let dyk = du.cross(&tp.w) + u.cross(&dw);
-                let dtau = if j == 6 + k { 1.0 } else { 0.0 };
-                let dc = (dtau - tp.c * dlen) / tp.len;
-                let df =
-                    tp.q * dc + (dyk - dt * tp.ty - tp.t * (dt.dot(&tp.y) + tp.t.dot(&dyk))) * tp.c;
-                let rdf = r_k.cross(&df);
-                for c in 0..3 {
-                    g[c][j] += df[c];
-                    g[3 + c][j] += rdf[c];
+            // N = A û − T with A û = c (û + t (u × t)ᵀ) and
+            // T = (c/ℓ)(q tᵀ + t qᵀ + (t·y)(I − t tᵀ)); Ñ = −N r̂ − A ŵ, A ŵ = c ŵ (t ∥ w).
+            let ut = u.cross(t);
+            let (ct, w) = (c / len, &tp.w);
+            let u_hat = [[0.0, -u.z, u.y], [u.z, 0.0, -u.x], [-u.y, u.x, 0.0]];
+            let mut n = [[0.0; 3]; 3];
+            for i in 0..3 {
+                for j in 0..3 {
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    let a_u = c * (u_hat[i][j] + t[i] * ut[j]);
+                    let tm = ct * (q[i] * t[j] + t[i] * q[j] + ty * (id - t[i] * t[j]));
+                    n[i][j] = a_u - tm;
+                }
+            }
+            let w_hat = [[0.0, -w.z, w.y], [w.z, 0.0, -w.x], [-w.y, w.x, 0.0]];
+            // Ñ = −N r̂ − c ŵ, N r̂ by columns: (N r̂) e_j = N (r × e_j).
+            let mut nt = [[0.0; 3]; 3];
+            for i in 0..3 {
+                let row = &n[i];
+                let nr = [
+                    row[1] * r.z - row[2] * r.y,
+                    row[2] * r.x - row[0] * r.z,
+                    row[0] * r.y - row[1] * r.x,
+                ];
+                for j in 0..3 {
+                    nt[i][j] = -nr[j] - c * w_hat[i][j];
+                }
+            }
+            // [I; r̂] applied to N (H_v columns) and Ñ (H_u columns): r̂ M by rows.
+            for (m, col) in [(&n, 0), (&nt, 3)] {
+                for j in 0..3 {
+                    let (m0, m1, m2) = (m[0][j], m[1][j], m[2][j]);
+                    h[0][col + j] += m0;
+                    h[1][col + j] += m1;
+                    h[2][col + j] += m2;
+                    h[3][col + j] += r.y * m2 - r.z * m1;
+                    h[4][col + j] += r.z * m0 - r.x * m2;
+                    h[5][col + j] += r.x * m1 - r.y * m0;
                 }
             }
         }
-        for row in g.iter_mut() {
-            for x in row[..n].iter_mut() {
-                *x = -*x;
+    }
+
+    /// Propagates the tangents through this stage at the last [`Stage::linearize`]: the
+    /// derivative k of the first `N` lanes of `d` (only its R, v, u lanes are read) is
+    /// emitted straight into the RK sums of `step` (no intermediate buffer).
+    #[inline(always)]
+    pub fn tangents<const N: usize>(&self, model: &LegModel, d: &Tangents, step: &mut RkEmit) {
+        let f = &model.weight_per_length;
+        let mut b = [[0.0; N]; 6];
+        for (row, b_row) in b.iter_mut().enumerate() {
+            let h = &self.h[row];
+            let inject = &self.inject[row];
+            for j in 0..N {
+                b_row[j] = h[0] * d.v[0][j]
+                    + h[1] * d.v[1][j]
+                    + h[2] * d.v[2][j]
+                    + h[3] * d.u[0][j]
+                    + h[4] * d.u[1][j]
+                    + h[5] * d.u[2][j]
+                    + inject[j];
             }
         }
-        self.factor.solve_lanes(&mut g, n);
+        // e = dRᵀ f (R stored column-major: entry (row, col) at 3 col + row).
         for c in 0..3 {
-            out.v[c][..n].copy_from_slice(&g[c][..n]);
-            out.u[c][..n].copy_from_slice(&g[3 + c][..n]);
+            for j in 0..N {
+                b[c][j] += d.r[3 * c][j] * f.x + d.r[3 * c + 1][j] * f.y + d.r[3 * c + 2][j] * f.z;
+            }
+        }
+        // The tendon lengths read dv, du before anything is emitted.
+        for k in 0..model.n_tendons {
+            let mut ds = [0.0; N];
+            if self.active & (1 << k) != 0 {
+                let (t, rt) = (&self.tendons[k].t, &self.tendons[k].rt);
+                for j in 0..N {
+                    ds[j] = t.x * d.v[0][j]
+                        + t.y * d.v[1][j]
+                        + t.z * d.v[2][j]
+                        + rt.x * d.u[0][j]
+                        + rt.y * d.u[1][j]
+                        + rt.z * d.u[2][j];
+                }
+            }
+            step.passive(Row::S(k), &ds);
+        }
+        let (rot, v, u) = (&self.r, &self.v, &self.u);
+        for row in 0..3 {
+            let (r0, r1, r2) = (rot[(row, 0)], rot[(row, 1)], rot[(row, 2)]);
+            let (mut dp, mut c0, mut c1, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+            for j in 0..N {
+                let (a0, a1, a2) = (d.r[row][j], d.r[3 + row][j], d.r[6 + row][j]);
+                let (w0, w1, w2) = (d.u[0][j], d.u[1][j], d.u[2][j]);
+                // dp' = dR v + R dv
+                dp[j] = a0 * v.x
+                    + a1 * v.y
+                    + a2 * v.z
+                    + r0 * d.v[0][j]
+                    + r1 * d.v[1][j]
+                    + r2 * d.v[2][j];
+                // dR' = dR û + R dû, column by column: M x̂ e_j = M (x × e_j).
+                c0[j] = a1 * u.z - a2 * u.y + r1 * w2 - r2 * w1;
+                c1[j] = a2 * u.x - a0 * u.z + r2 * w0 - r0 * w2;
+                c2[j] = a0 * u.y - a1 * u.x + r0 * w1 - r1 * w0;
+            }
+            step.passive(Row::P(row), &dp);
+            step.active(Row::R(row), &c0);
+            step.active(Row::R(3 + row), &c1);
+            step.active(Row::R(6 + row), &c2);
+        }
+        self.factor.solve_lanes(&mut b);
+        for c in 0..3 {
+            for j in 0..N {
+                b[c][j] = -b[c][j];
+                b[3 + c][j] = -b[3 + c][j];
+            }
+            step.active(Row::V(c), &b[c]);
+            step.active(Row::U(c), &b[3 + c]);
+        }
+    }
+}
+
+/// A component row of [`Tangents`].
+#[derive(Debug, Clone, Copy)]
+pub enum Row {
+    /// p_c.
+    P(usize),
+    /// R entry 3·col + row.
+    R(usize),
+    /// v_c.
+    V(usize),
+    /// u_c.
+    U(usize),
+    /// s_k.
+    S(usize),
+}
+
+impl Tangents {
+    #[inline(always)]
+    fn row(&self, r: Row) -> &Lanes {
+        match r {
+            Row::P(c) => &self.p[c],
+            Row::R(c) => &self.r[c],
+            Row::V(c) => &self.v[c],
+            Row::U(c) => &self.u[c],
+            Row::S(k) => &self.s[k],
+        }
+    }
+
+    #[inline(always)]
+    fn row_mut(&mut self, r: Row) -> &mut Lanes {
+        match r {
+            Row::P(c) => &mut self.p[c],
+            Row::R(c) => &mut self.r[c],
+            Row::V(c) => &mut self.v[c],
+            Row::U(c) => &mut self.u[c],
+            Row::S(k) => &mut self.s[k],
+        }
+    }
+}
+
+/// Where one RK stage's tangent derivative k goes: the step's sum
+/// `sum = base + a·k` (first stage) or `sum += a·k`, and, for R, v, u, the next stage's
+/// input `next = base + c·k`.
+pub struct RkEmit<'a> {
+    /// Tangents at the start of the step.
+    pub base: &'a Tangents,
+    /// The step's running sum.
+    pub sum: &'a mut Tangents,
+    /// Weight h b_i of this stage in the sum.
+    pub weight: f64,
+    /// Whether this is the first stage (the sum starts from `base`).
+    pub first: bool,
+    /// The next stage's input and its offset h c_(i+1), unless this is the last stage.
+    pub next: Option<(&'a mut Tangents, f64)>,
+}
+
+impl RkEmit<'_> {
+    /// A row that feeds back (R, v, u): into the sum and the next stage.
+    #[inline(always)]
+    fn active<const N: usize>(&mut self, row: Row, k: &[f64; N]) {
+        self.passive(row, k);
+        if let Some((next, c)) = self.next.as_mut() {
+            let (base, out) = (self.base.row(row), next.row_mut(row));
+            for j in 0..N {
+                out[j] = base[j] + *c * k[j];
+            }
+        }
+    }
+
+    /// A row that does not feed back (p, s): into the sum only.
+    #[inline(always)]
+    fn passive<const N: usize>(&mut self, row: Row, k: &[f64; N]) {
+        let a = self.weight;
+        let out = self.sum.row_mut(row);
+        if self.first {
+            let base = self.base.row(row);
+            for j in 0..N {
+                out[j] = base[j] + a * k[j];
+            }
+        } else {
+            for j in 0..N {
+                out[j] += a * k[j];
+            }
         }
     }
 }

@@ -48,7 +48,7 @@ use crate::design::Tdpcr;
 use crate::error::{Error, Violations};
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::{Model, Pose};
-use crate::newton::NewtonSettings;
+use crate::newton::{NewtonReport, NewtonSettings};
 use crate::rod::Wrench;
 use crate::rod::tendon::{TendonUnknown, tension};
 
@@ -379,6 +379,11 @@ pub struct WorkspaceSummary {
     pub solves: usize,
     /// Newton iterations of the converged solves.
     pub newton_iterations: usize,
+    /// Of the converged solves: residual evaluations (each a primal integration of the
+    /// three legs) and, among them, Jacobian evaluations (with sensitivities).
+    pub residual_evaluations: usize,
+    /// See `residual_evaluations`.
+    pub jacobian_evaluations: usize,
     /// Worker threads.
     pub threads: usize,
     /// Wall time of the sweep (solves and measures, not file output) \[s\].
@@ -540,6 +545,19 @@ fn tensions(model: &Model, state: &RobotState) -> Vec<f64> {
 struct Work {
     solves: AtomicUsize,
     iterations: AtomicUsize,
+    jacobians: AtomicUsize,
+    residuals: AtomicUsize,
+}
+
+impl Work {
+    /// Counts a converged solve's work.
+    fn add(&self, r: &NewtonReport) {
+        self.iterations.fetch_add(r.iterations, Ordering::Relaxed);
+        self.jacobians
+            .fetch_add(r.jacobian_evaluations, Ordering::Relaxed);
+        self.residuals
+            .fetch_add(r.residual_evaluations, Ordering::Relaxed);
+    }
 }
 
 /// One solved point of a ray (or a plane origin).
@@ -617,8 +635,7 @@ impl Worker {
             .solve_ik_newton(&pose, &zero, predicted.as_ref().unwrap_or(last));
         work.solves.fetch_add(1, Ordering::Relaxed);
         let sol = result.map_err(|_| End::NotConverged)?;
-        work.iterations
-            .fetch_add(sol.report.iterations, Ordering::Relaxed);
+        work.add(&sol.report);
         self.classify(model, sol.state)
     }
 
@@ -776,8 +793,7 @@ fn reach_planes(
         .solver
         .solve_ik(&home_pose, &Wrench::default(), None)?;
     work.solves.fetch_add(1, Ordering::Relaxed);
-    work.iterations
-        .fetch_add(home.report.iterations, Ordering::Relaxed);
+    work.add(&home.report);
     let home = match home_worker.classify(model, home.state) {
         Ok(s) if !(s.collision && settings.collisions == CollisionPolicy::Stop) => s,
         _ => {
@@ -950,6 +966,8 @@ fn summarize(
         ray_ends,
         solves,
         newton_iterations: work.iterations.load(Ordering::Relaxed),
+        residual_evaluations: work.residuals.load(Ordering::Relaxed),
+        jacobian_evaluations: work.jacobians.load(Ordering::Relaxed),
         threads: rayon::current_num_threads(),
         wall_time_s: wall,
         solves_per_second: if wall > 0.0 {
