@@ -45,6 +45,15 @@ fn main() {
     let qs = fk_motion_sequence(solver.model().pairs, 1000);
     let (steps, stats) = run_trajectory(&mut solver, &Targets::Actuations(qs), &w);
     println!("FK, 9-DoF, 1000 steps: {stats:?}");
+    let mut slowest: Vec<(f64, usize, usize)> = steps
+        .iter()
+        .map(|s| (s.solve_time_us, s.step, s.iterations))
+        .collect();
+    slowest.sort_by(|a, b| b.0.total_cmp(&a.0));
+    println!(
+        "slowest FK steps (µs, step, iterations): {:.0?}",
+        &slowest[..5]
+    );
     let failed: Vec<usize> = steps
         .iter()
         .filter(|s| !s.converged)

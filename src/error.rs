@@ -130,4 +130,15 @@ pub enum Error {
     /// The inputs of a solve (actuation, loads, ...) break a rule; all are listed.
     #[error("invalid input:{0}")]
     Input(Violations),
+    /// A kinetostatic analysis failed (an exactly singular matrix).
+    #[error(transparent)]
+    Analysis(#[from] crate::analysis::AnalysisError),
+    /// An output file or directory could not be written.
+    #[error("cannot write {path}: {source}")]
+    Output {
+        /// The file or directory.
+        path: PathBuf,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
 }

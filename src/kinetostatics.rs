@@ -292,16 +292,7 @@ impl Solver {
         extra: &Wrench,
         init: Option<&RobotState>,
     ) -> Result<Solution, Error> {
-        let mut v = Violations::default();
-        if !pose
-            .position
-            .iter()
-            .chain(pose.rotation.iter())
-            .all(|x| x.is_finite())
-        {
-            v.push("pose", "a non-finite value", "finite numbers");
-        }
-        let wrench = self.checked_wrench(v, extra, init)?;
+        let wrench = self.checked_wrench(pose_violations(pose), extra, init)?;
         let start = Instant::now();
         let guess = match init {
             Some(s) => RobotState {
@@ -879,6 +870,11 @@ impl Solver {
         self.newton.residual_history()
     }
 
+    /// The model and the blocks of the last evaluation (after [`Solver::blocks_at`]).
+    pub(crate) fn model_and_blocks(&self) -> (&Model, &BoundaryJacobians) {
+        (&self.model, &self.blocks)
+    }
+
     /// The residual and exact blocks at a state (for analysis and tests).
     ///
     /// # Errors
@@ -1137,5 +1133,49 @@ fn retract(problem: Problem, x: &DVector<f64>, step: &DVector<f64>, out: &mut DV
         for c in 0..3 {
             out[3 + c] = phi[c];
         }
+    }
+}
+
+/// A pose with a non-finite entry, as a violation.
+fn pose_violations(pose: &Pose) -> Violations {
+    let mut v = Violations::default();
+    if !pose
+        .position
+        .iter()
+        .chain(pose.rotation.iter())
+        .all(|x| x.is_finite())
+    {
+        v.push("pose", "a non-finite value", "finite numbers");
+    }
+    v
+}
+
+/// Path following without fallbacks (additive; used by the workspace sweep).
+impl Solver {
+    /// IK by one Newton run from `guess`, without the continuation fallback of
+    /// [`Solver::solve_ik`]: for path following, where a step that fails ends the path
+    /// (the workspace rays of MODEL.md §6) and a fallback would only cost time. The
+    /// guess's pose is replaced by `pose`; its q and y_u are the start.
+    ///
+    /// # Errors
+    /// As [`Solver::solve_ik`].
+    pub fn solve_ik_newton(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        guess: &RobotState,
+    ) -> Result<Solution, Error> {
+        let wrench = self.checked_wrench(pose_violations(pose), extra, Some(guess))?;
+        let start = Instant::now();
+        let guess = RobotState {
+            position: pose.position.into(),
+            rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                .scaled_axis()
+                .into(),
+            ..guess.clone()
+        };
+        let settings = self.settings;
+        let result = self.solve_target(None, &settings, &Target::Inverse(*pose), &wrench, guess);
+        finish(result, start)
     }
 }

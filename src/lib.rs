@@ -9,7 +9,10 @@
 //! Entry points:
 //! - [`design`]: the RON design files ([`Tdcr`], [`Tdpcr`], [`Leg`]) and their validation;
 //! - [`rod`]: one leg, integrated with or without exact sensitivities;
-//! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control.
+//! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control;
+//! - [`kinetostatics`]: FK and IK of the parallel robot ([`kinetostatics::Solver`]);
+//! - [`analysis`]: Jacobians, compliance, singularity measures and ellipsoids of a solved
+//!   configuration ([`kinetostatics::Solver::analyze`], [`analysis::analyze_blocks`]).
 //!
 //! ```
 //! use tdpcr::{Tdcr, tdcr::{TdcrSolver, TendonControl, TipWrench}};
@@ -24,6 +27,7 @@
 // Tendon quantities live in parallel arrays indexed by k, as in the equations.
 #![allow(clippy::needless_range_loop)]
 
+pub mod analysis;
 pub mod boundary;
 pub mod design;
 pub mod error;
@@ -36,6 +40,7 @@ pub mod rod;
 pub mod sampling;
 pub mod tdcr;
 pub mod trajectory;
+pub mod workspace;
 
 pub use design::{Leg, Tdcr, Tdpcr};
 pub use error::{DesignError, SolveError};

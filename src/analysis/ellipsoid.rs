@@ -1,0 +1,179 @@
+//! Manipulability and compliance ellipsoids (paper Sec. V-C, Fig. 8): the image of the
+//! unit ball under a 3 × k matrix A, {A z : ‖z‖ ≤ 1}. Its semi-axes are the singular
+//! values of A and its axes the left singular vectors; for a 3 × n_q Jacobian these are
+//! the square roots of the eigenvalues and the eigenvectors of A Aᵀ (3 × 3).
+//!
+//! A is reduced to a 3 × 3 lower-triangular L with A = L Qᵀ (Gram–Schmidt on its rows,
+//! twice for orthogonality) and L is decomposed; A Aᵀ is never formed, so a thin
+//! ellipsoid keeps its small semi-axis to working precision.
+
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use serde::Serialize;
+
+/// One ellipsoid: semi-axes in decreasing order and their unit directions (world frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Ellipsoid {
+    /// Semi-axes σ₁ ≥ σ₂ ≥ σ₃ ≥ 0 (the singular values of the matrix), in its units:
+    /// J_p \[m/m\], J_o \[rad/m\], C_p \[m/N\], C_o \[rad/(N·m)\].
+    pub semi_axes: [f64; 3],
+    /// `directions[k]` is the unit axis of `semi_axes[k]` (a left singular vector), its
+    /// largest component made positive.
+    pub directions: [[f64; 3]; 3],
+}
+
+impl Ellipsoid {
+    /// The ellipsoid of the 3 × k matrix `a` (k ≥ 1).
+    ///
+    /// # Panics
+    /// If `a` does not have 3 rows (a programmer error).
+    #[track_caller]
+    pub fn of(a: &DMatrix<f64>) -> Self {
+        assert_eq!(a.nrows(), 3, "Ellipsoid::of: expected 3 rows");
+        Self::of_lower(&row_compression(a))
+    }
+
+    /// The ellipsoid of a 3 × 3 matrix.
+    pub fn of_matrix3(a: &Matrix3<f64>) -> Self {
+        Self::of_lower(a)
+    }
+
+    fn of_lower(l: &Matrix3<f64>) -> Self {
+        if !l.iter().all(|x| x.is_finite()) {
+            return Self {
+                semi_axes: [f64::INFINITY; 3],
+                directions: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            };
+        }
+        let svd = l.svd(true, false);
+        let u = svd.u.expect("requested");
+        let mut order = [0usize, 1, 2];
+        order.sort_by(|&i, &j| svd.singular_values[j].total_cmp(&svd.singular_values[i]));
+        let mut semi_axes = [0.0; 3];
+        let mut directions = [[0.0; 3]; 3];
+        for (k, &i) in order.iter().enumerate() {
+            semi_axes[k] = svd.singular_values[i];
+            let mut d: Vector3<f64> = u.column(i).into_owned();
+            let big = d.iamax();
+            if d[big] < 0.0 {
+                d = -d;
+            }
+            directions[k] = d.into();
+        }
+        Self {
+            semi_axes,
+            directions,
+        }
+    }
+
+    /// Reciprocal condition number σ₃/σ₁ (0 for a zero or non-finite matrix).
+    pub fn rcond(&self) -> f64 {
+        ratio(self.semi_axes[2], self.semi_axes[0])
+    }
+}
+
+/// σ_min/σ_max, 0 when σ_max is 0 or either is not finite.
+pub(crate) fn ratio(min: f64, max: f64) -> f64 {
+    if max > 0.0 && max.is_finite() && min.is_finite() {
+        (min / max).max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// L with a = L Qᵀ, L lower-triangular 3 × 3 and Q with orthonormal columns (modified
+/// Gram–Schmidt on the rows, repeated once).
+fn row_compression(a: &DMatrix<f64>) -> Matrix3<f64> {
+    let k = a.ncols();
+    let mut q = [vec![0.0; k], vec![0.0; k], vec![0.0; k]];
+    let mut l = Matrix3::zeros();
+    for i in 0..3 {
+        let mut r: Vec<f64> = a.row(i).iter().copied().collect();
+        for _pass in 0..2 {
+            for j in 0..i {
+                let c: f64 = r.iter().zip(&q[j]).map(|(x, y)| x * y).sum();
+                l[(i, j)] += c;
+                for (x, y) in r.iter_mut().zip(&q[j]) {
+                    *x -= c * y;
+                }
+            }
+        }
+        let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+        l[(i, i)] = norm;
+        if norm > 0.0 {
+            for (x, y) in q[i].iter_mut().zip(&r) {
+                *x = y / norm;
+            }
+        }
+    }
+    l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn semi_axes_and_directions_of_a_known_matrix() {
+        // Rows scaled 3, 2, 1 along z, x, y after a rotation of the inputs.
+        let a = DMatrix::from_row_slice(
+            3,
+            4,
+            &[0.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 3.0, 0.0, 0.0, 0.0],
+        );
+        let e = Ellipsoid::of(&a);
+        for (s, expected) in e.semi_axes.iter().zip([3.0, 2.0, 1.0]) {
+            assert!((s - expected).abs() < 1e-14, "{:?}", e.semi_axes);
+        }
+        for (d, expected) in
+            e.directions
+                .iter()
+                .zip([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        {
+            let err: f64 = d.iter().zip(expected).map(|(a, b)| (a - b).abs()).sum();
+            assert!(err < 1e-14, "{d:?} vs {expected:?}");
+        }
+        assert!((e.rcond() - 1.0 / 3.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn matches_the_full_svd_of_a_thin_wide_matrix() {
+        let a = DMatrix::from_fn(3, 9, |i, j| {
+            ((i * 9 + j * j + 1) as f64).sqrt().sin() * 10f64.powi(i as i32 - 4)
+        });
+        let e = Ellipsoid::of(&a);
+        let s = a.clone().singular_values();
+        let mut s: Vec<f64> = s.iter().copied().collect();
+        s.sort_by(|x, y| y.total_cmp(x));
+        for k in 0..3 {
+            assert!(
+                (e.semi_axes[k] - s[k]).abs() <= 1e-12 * s[k],
+                "{k}: {} vs {}",
+                e.semi_axes[k],
+                s[k]
+            );
+        }
+        // A A^T d_k = σ_k² d_k.
+        let g = &a * a.transpose();
+        for k in 0..3 {
+            let d = nalgebra::DVector::from_row_slice(&e.directions[k]);
+            let r = &g * &d - &d * e.semi_axes[k].powi(2);
+            assert!(
+                r.norm() <= 1e-10 * e.semi_axes[0].powi(2),
+                "{k}: {}",
+                r.norm()
+            );
+        }
+    }
+
+    #[test]
+    fn a_rank_deficient_matrix_has_a_zero_axis_and_rcond_zero() {
+        let a = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        let e = Ellipsoid::of(&a);
+        assert!(e.semi_axes[2].abs() < 1e-15, "{:?}", e.semi_axes);
+        assert!(e.rcond() < 1e-15);
+        assert!(e.semi_axes.iter().all(|x| x.is_finite()));
+        let zero = Ellipsoid::of(&DMatrix::zeros(3, 6));
+        assert_eq!(zero.rcond(), 0.0);
+        assert_eq!(zero.semi_axes, [0.0; 3]);
+    }
+}

@@ -1,0 +1,442 @@
+//! The largest and smallest singular values of an upper-triangular matrix R by the
+//! Lanczos method (full reorthogonalization), on RᵀR for σ_max and on (RᵀR)⁻¹ =
+//! R⁻¹R⁻ᵀ (two triangular solves per step) for σ_min.
+//!
+//! Only two singular values are needed for rcond, and the boundary matrices' spectra
+//! come in well-separated clusters (stiff shear/extension directions ~10⁴, the rest
+//! ≤ ~1 in SI), so a few steps suffice where a dense SVD would reduce the whole matrix.
+//! A step stops when the Ritz residual β_k |s_k| of the largest Ritz value θ is at most
+//! [`TOLERANCE`]·θ: some eigenvalue then lies within that distance of θ (and in practice
+//! within its square over the gap); at k = n the Krylov space is the whole space and θ
+//! is exact. The start vector is a fixed pseudo-random one, so results are reproducible.
+
+use super::qr::Triangle;
+
+/// Relative Ritz residual at which an eigenvalue counts as found.
+pub(crate) const TOLERANCE: f64 = 1e-5;
+
+/// Work space of the iteration for matrices up to a size.
+#[derive(Debug, Clone)]
+pub(crate) struct Lanczos {
+    work: Work,
+    /// The Ritz vector of the last [`Lanczos::sigma_max`] (a right singular vector).
+    ritz: Vec<f64>,
+    ritz_len: usize,
+}
+
+/// The iteration's vectors and tridiagonal.
+#[derive(Debug, Clone)]
+struct Work {
+    basis: Vec<f64>,
+    w: Vec<f64>,
+    tmp: Vec<f64>,
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    steps: usize,
+}
+
+/// Where the iteration starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Start<'a> {
+    /// A fixed pseudo-random vector.
+    Random,
+    /// A given unit vector, padded with zeros: for R = \[R₀ X; 0 Y\], R₀'s top right
+    /// singular vector ([`Lanczos::ritz`]).
+    Given(&'a [f64]),
+}
+
+impl Lanczos {
+    /// Work space for n × n matrices (and smaller).
+    pub fn new(n: usize) -> Self {
+        Self {
+            work: Work {
+                basis: vec![0.0; n * n],
+                w: vec![0.0; n],
+                tmp: vec![0.0; n],
+                alpha: vec![0.0; n],
+                beta: vec![0.0; n],
+                steps: 0,
+            },
+            ritz: vec![0.0; n],
+            ritz_len: 0,
+        }
+    }
+
+    /// Lanczos steps of the last call.
+    #[cfg(test)]
+    pub fn steps(&self) -> usize {
+        self.work.steps
+    }
+
+    /// The right singular vector of the last [`Lanczos::sigma_max`] (unit; empty if none).
+    pub fn ritz(&self) -> &[f64] {
+        &self.ritz[..self.ritz_len]
+    }
+
+    /// σ_max(R) for upper-triangular R; keeps the right singular vector ([`Lanczos::ritz`]).
+    pub fn sigma_max(&mut self, r: Triangle, start: Start) -> f64 {
+        let n = r.n;
+        let first = &mut self.work.basis[..n];
+        match start {
+            Start::Given(v) if !v.is_empty() && v.len() <= n => {
+                first.fill(0.0);
+                first[..v.len()].copy_from_slice(v);
+            }
+            _ => start_vector(first),
+        }
+        let lambda = self.work.largest_eigenvalue(n, |x, y, tmp| {
+            upper_mul(r, x, tmp);
+            upper_transpose_mul(r, tmp, y);
+        });
+        self.ritz_len = self.work.ritz_vector(n, &mut self.ritz);
+        lambda.max(0.0).sqrt()
+    }
+
+    /// σ_min(R) for upper-triangular R (0 if a diagonal entry is 0 or R⁻¹ overflows).
+    /// Starts from the condition-estimator vector R⁻¹y, Rᵀy = e with e = ±1 chosen
+    /// for growth (LINPACK), which leans towards the smallest singular vector.
+    pub fn sigma_min(&mut self, r: Triangle) -> f64 {
+        let n = r.n;
+        if r.is_singular() {
+            return 0.0;
+        }
+        let w = &mut self.work;
+        estimator_start(r, &mut w.tmp[..n], &mut w.basis[..n]);
+        let norm = dot(&w.basis[..n], &w.basis[..n]).sqrt();
+        if !(norm > 0.0 && norm.is_finite()) {
+            start_vector(&mut w.basis[..n]);
+        } else {
+            w.basis[..n].iter_mut().for_each(|x| *x /= norm);
+        }
+        let lambda = w.largest_eigenvalue(n, |x, y, tmp| {
+            solve_upper_transpose(r, x, tmp);
+            solve_upper(r, tmp, y);
+        });
+        if lambda.is_finite() && lambda > 0.0 {
+            1.0 / lambda.sqrt()
+        } else {
+            0.0
+        }
+    }
+}
+
+impl Work {
+    /// The largest eigenvalue of the symmetric positive semi-definite operator
+    /// `apply(x, y, tmp)`: y = A x (`tmp` is scratch of length n), from the unit start
+    /// vector in the first basis slot.
+    fn largest_eigenvalue(
+        &mut self,
+        n: usize,
+        mut apply: impl FnMut(&[f64], &mut [f64], &mut [f64]),
+    ) -> f64 {
+        assert!(self.w.len() >= n, "Lanczos: work space too small");
+        self.steps = 0;
+        if n == 0 {
+            return 0.0;
+        }
+        let mut theta = 0.0;
+        for k in 0..n {
+            self.steps = k + 1;
+            let (done, current) = self.basis.split_at_mut(k * n);
+            let q = &current[..n];
+            apply(q, &mut self.w[..n], &mut self.tmp[..n]);
+            let w = &mut self.w[..n];
+            if !w.iter().all(|x| x.is_finite()) {
+                return f64::INFINITY;
+            }
+            let a = dot(q, w);
+            self.alpha[k] = a;
+            axpy(-a, q, w);
+            if k > 0 {
+                axpy(-self.beta[k - 1], &done[(k - 1) * n..k * n], w);
+            }
+            // Full reorthogonalization against the basis so far (q included).
+            for j in 0..=k {
+                let qj = if j < k {
+                    &done[j * n..(j + 1) * n]
+                } else {
+                    &current[..n]
+                };
+                let c = dot(qj, w);
+                axpy(-c, qj, w);
+            }
+            let b = dot(w, w).sqrt();
+            let (t, s) = top_ritz(&self.alpha[..=k], &self.beta[..k], theta);
+            theta = t;
+            if k + 1 == n || b * s.abs() <= TOLERANCE * theta.abs() || b <= f64::EPSILON * theta {
+                return theta;
+            }
+            self.beta[k] = b;
+            let next = &mut self.basis[(k + 1) * n..(k + 2) * n];
+            for (x, y) in next.iter_mut().zip(w.iter()) {
+                *x = y / b;
+            }
+        }
+        theta
+    }
+
+    /// Writes the Ritz vector of the last run's largest Ritz value θ into `out` (Σ y_i
+    /// q_i with y the tridiagonal's eigenvector by its three-term recurrence); returns
+    /// its length (0 if it could not be formed).
+    fn ritz_vector(&self, n: usize, out: &mut [f64]) -> usize {
+        let k = self.steps;
+        if k == 0 {
+            return 0;
+        }
+        let (theta, _) = top_ritz(&self.alpha[..k], &self.beta[..k - 1], 0.0);
+        let ritz = &mut out[..n];
+        ritz.fill(0.0);
+        let (mut y_prev, mut y) = (0.0, 1.0);
+        for i in 0..k {
+            axpy(y, &self.basis[i * n..(i + 1) * n], ritz);
+            if i + 1 < k {
+                let b_prev = if i > 0 { self.beta[i - 1] } else { 0.0 };
+                let next = ((theta - self.alpha[i]) * y - b_prev * y_prev) / self.beta[i];
+                (y_prev, y) = (y, next);
+            }
+        }
+        let norm = dot(ritz, ritz).sqrt();
+        if norm > 0.0 && norm.is_finite() {
+            ritz.iter_mut().for_each(|x| *x /= norm);
+            n
+        } else {
+            0
+        }
+    }
+}
+
+/// x = R⁻¹ y with Rᵀ y = e, e_j = ±1 chosen so that |y_j| grows (`tmp` holds y).
+fn estimator_start(r: Triangle, tmp: &mut [f64], x: &mut [f64]) {
+    for j in 0..r.n {
+        let col = r.column(j);
+        let s = dot(&col[..j], &tmp[..j]);
+        let e = if s > 0.0 { -1.0 } else { 1.0 };
+        tmp[j] = (e - s) / col[j];
+    }
+    solve_upper(r, tmp, x);
+}
+
+/// A fixed pseudo-random unit vector (xorshift), so no symmetry of the matrix can make
+/// it orthogonal to the wanted eigenvector.
+fn start_vector(x: &mut [f64]) {
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    for v in x.iter_mut() {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        *v = (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+    }
+    let norm = dot(x, x).sqrt();
+    for v in x.iter_mut() {
+        *v /= norm;
+    }
+}
+
+/// The largest eigenvalue θ of the symmetric tridiagonal T (diagonal `alpha`,
+/// off-diagonal `beta`) and the last component s of its unit eigenvector, by Newton's
+/// method on the characteristic polynomial χ from the upper bound
+/// max(θ_prev, α_k) + β_{k−1} (Weyl; θ_prev is the largest eigenvalue of T without its
+/// last row and column). From above the largest root, Newton decreases monotonically to
+/// it. s² = χ_{k−1}(θ)/χ_k′(θ).
+fn top_ritz(alpha: &[f64], beta: &[f64], theta_prev: f64) -> (f64, f64) {
+    let k = alpha.len();
+    if k == 1 {
+        return (alpha[0], 1.0);
+    }
+    let upper = theta_prev.max(alpha[k - 1]) + beta[k - 2];
+    if !(upper > 0.0 && upper.is_finite()) {
+        return (upper, 1.0);
+    }
+    // Work in units of the bound to keep χ of order one.
+    let scale = upper;
+    let mut lambda = 1.0;
+    let mut chi_prev_row = 0.0;
+    let mut derivative = 1.0;
+    for _ in 0..200 {
+        let (mut c2, mut c1) = (0.0, 1.0);
+        let (mut d2, mut d1) = (0.0, 0.0);
+        for i in 0..k {
+            let a = alpha[i] / scale;
+            let b2 = if i > 0 {
+                (beta[i - 1] / scale).powi(2)
+            } else {
+                0.0
+            };
+            let c = (lambda - a) * c1 - b2 * c2;
+            let d = c1 + (lambda - a) * d1 - b2 * d2;
+            if i + 1 == k {
+                chi_prev_row = c1;
+            }
+            (c2, c1) = (c1, c);
+            (d2, d1) = (d1, d);
+        }
+        derivative = d1;
+        if d1 <= 0.0 || !d1.is_finite() {
+            break;
+        }
+        let step = c1 / d1;
+        lambda -= step;
+        if step.abs() <= 4.0 * f64::EPSILON * lambda.abs() {
+            break;
+        }
+    }
+    let s2 = if derivative > 0.0 {
+        (chi_prev_row / derivative).clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    (lambda * scale, s2.sqrt())
+}
+
+/// a · b with four partial sums (independent chains; the compiler cannot reorder a
+/// floating-point sum itself).
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for i in 0..4 {
+            acc[i] += x[i] * y[i];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += a * xi;
+    }
+}
+
+/// y = R x.
+fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
+    y.fill(0.0);
+    for j in 0..r.n {
+        axpy(x[j], r.column(j), &mut y[..=j]);
+    }
+}
+
+/// y = Rᵀ x.
+fn upper_transpose_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
+    for j in 0..r.n {
+        y[j] = dot(r.column(j), &x[..=j]);
+    }
+}
+
+/// Solves Rᵀ y = x (forward substitution).
+fn solve_upper_transpose(r: Triangle, x: &[f64], y: &mut [f64]) {
+    for j in 0..r.n {
+        let col = r.column(j);
+        y[j] = (x[j] - dot(&col[..j], &y[..j])) / col[j];
+    }
+}
+
+/// Solves R y = x (back substitution).
+fn solve_upper(r: Triangle, x: &[f64], y: &mut [f64]) {
+    y.copy_from_slice(&x[..r.n]);
+    for j in (0..r.n).rev() {
+        let col = r.column(j);
+        let yj = y[j] / col[j];
+        y[j] = yj;
+        axpy(-yj, &col[..j], &mut y[..j]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    fn tri(r: &DMatrix<f64>) -> Triangle<'_> {
+        Triangle {
+            data: r.as_slice(),
+            n: r.nrows(),
+            ld: r.nrows(),
+        }
+    }
+
+    /// An upper-triangular matrix with graded, clustered singular values like the
+    /// boundary blocks': R = triu(QR of a matrix with chosen singular values).
+    fn graded(n: usize) -> DMatrix<f64> {
+        let u = DMatrix::from_fn(n, n, |i, j| ((i * n + j) as f64 * 0.37).sin())
+            .qr()
+            .q();
+        let v = DMatrix::from_fn(n, n, |i, j| ((i * 3 + j * 7) as f64 * 0.11).cos())
+            .qr()
+            .q();
+        let s = DMatrix::from_fn(n, n, |i, j| {
+            if i == j {
+                // Three nearly equal large values, a gap, then 1e-4..1e0 decades.
+                match i {
+                    0 | 1 => 5.04e4,
+                    2 => 4.43e4,
+                    _ => 10f64.powf(-4.0 + 4.0 * (i as f64 - 3.0) / (n as f64 - 4.0)),
+                }
+            } else {
+                0.0
+            }
+        });
+        (u * s * v.transpose()).qr().r()
+    }
+
+    #[test]
+    fn extremes_match_the_dense_svd() {
+        for n in [1, 2, 6, 24, 30, 36] {
+            let r = graded(n.max(5)).view((0, 0), (n, n)).into_owned();
+            let r = r.upper_triangle();
+            let s = r.clone().singular_values();
+            let (max, min) = (s.max(), s.min());
+            let mut lz = Lanczos::new(n);
+            let got_max = lz.sigma_max(tri(&r), Start::Random);
+            assert!(lz.steps() <= n);
+            let got_min = lz.sigma_min(tri(&r));
+            assert!(
+                (got_max - max).abs() <= 1e-9 * max,
+                "n = {n}: σ_max {got_max} vs {max}"
+            );
+            // The dense SVD itself is only accurate to ε·σ_max in σ_min.
+            assert!(
+                (got_min - min).abs() <= 1e-8 * min + 1e-15 * max,
+                "n = {n}: σ_min {got_min} vs {min}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_warm_start_from_the_leading_block_converges_to_the_same_value() {
+        let r = graded(30);
+        let lead = r.view((0, 0), (24, 24)).into_owned();
+        let mut lz = Lanczos::new(30);
+        lz.sigma_max(tri(&lead), Start::Random);
+        let v = lz.ritz().to_vec();
+        assert_eq!(v.len(), 24);
+        let warm = lz.sigma_max(tri(&r), Start::Given(&v));
+        let cold = Lanczos::new(30).sigma_max(tri(&r), Start::Random);
+        assert!((warm - cold).abs() <= 1e-9 * cold, "{warm} vs {cold}");
+    }
+
+    #[test]
+    fn a_zero_diagonal_gives_sigma_min_zero_and_no_nan() {
+        let mut r = graded(8);
+        r[(3, 3)] = 0.0;
+        let mut lz = Lanczos::new(8);
+        assert_eq!(lz.sigma_min(tri(&r)), 0.0);
+        assert!(lz.sigma_max(tri(&r), Start::Random).is_finite());
+        let zero = DMatrix::zeros(3, 3);
+        assert_eq!(Lanczos::new(3).sigma_max(tri(&zero), Start::Random), 0.0);
+    }
+
+    #[test]
+    fn the_top_ritz_value_of_a_known_tridiagonal() {
+        // T = tridiag(1, 2, 1) of size 4: eigenvalues 2 + 2 cos(kπ/5).
+        let (theta, s) = top_ritz(&[2.0; 4], &[1.0; 3], 3.0);
+        let exact = 2.0 + 2.0 * (std::f64::consts::PI / 5.0).cos();
+        assert!((theta - exact).abs() < 1e-14, "{theta} vs {exact}");
+        // The eigenvector is sin(jkπ/5), normalized: last component sin(4π/5)/√(5/2).
+        let last = (4.0 * std::f64::consts::PI / 5.0).sin() / (2.5f64).sqrt();
+        assert!((s - last).abs() < 1e-12, "{s} vs {last}");
+    }
+}

@@ -1,0 +1,538 @@
+//! Kinetostatic analysis of a solved configuration (MODEL.md §4; paper Sec. IV–V):
+//! Jacobians, compliance, singularity measures and flags, manipulability and compliance
+//! ellipsoids, from the exact boundary blocks B_x, B_q, B_w, B_u.
+//!
+//! With δb = B_x δx + B_q δq + B_w δw + B_u δy_u = 0 (eq. 17):
+//! - \[J_FK; Λ_FK\] = −\[B_x B_u\]⁻¹ B_q (eqs. 18–19): J_FK is 6 × n_q, rows δp \[m\] then
+//!   δθ \[rad\] (world frame, R ← exp(δθ^) R), columns q \[m\].
+//! - \[C; Λ_C\] = −\[B_x B_u\]⁻¹ B_w (eqs. 22–23): C = ∂x/∂w is 6 × 6, columns f_ext \[N\]
+//!   then l_ext \[N·m\]; C_p = C\[0..3, 0..3\] \[m/N\], C_o = C\[3..6, 3..6\] \[rad/(N·m)\].
+//! - J_IK (n_q × 6) and Λ_IK: for the 6-DoF design −\[B_q B_u\]⁻¹ B_x (eqs. 20–21). For
+//!   the 9-DoF design \[B_q B_u\] is 36 × 39 and J_IK is the Moore–Penrose right inverse
+//!   J_FK⁺ = J_FKᵀ (J_FK J_FKᵀ)⁻¹: of all actuation changes that produce δx it gives the
+//!   one with the least ‖δq‖₂ \[m\] (the least-‖δq‖ solution of eq. 20), and
+//!   Λ_IK = Λ_FK J_IK. The 6-DoF design falls back to the same J_FK⁺ (with singular
+//!   values below n·ε·σ_max dropped) where \[B_q B_u\] is exactly singular (Type I).
+//! - J_p = J_FK\[0..3, :\], J_o = J_FK\[3..6, :\] (3 × n_q); their ellipsoids are those of
+//!   J Jᵀ (3 × 3): semi-axes are the singular values of J.
+//!
+//! Singular matrices are an expected outcome: rcond is then 0 (or tiny) and the flags
+//! say which kind. Where \[B_x B_u\] is exactly singular (a zero pivot, or a solution that
+//! overflows) J_FK, Λ_FK, C and Λ_C do not exist and the analysis returns
+//! [`AnalysisError::Singular`] naming the matrix and its rcond; nothing is ever NaN.
+//!
+//! rcond: raw SI as in the paper (Type II when rcond(\[B_x B_u\]) < 3.5e-9), and
+//! unit-scaled ([`scaling`]) for design scoring.
+//!
+//! The leg unknowns' γ columns are the paper's (τ = γ², Θ = γ² when slack): the blocks
+//! must be evaluated with [`TendonUnknown::Gamma`](crate::rod::tendon::TendonUnknown), as
+//! [`Solver::blocks_at`] does.
+
+pub mod ellipsoid;
+mod lanczos;
+mod qr;
+pub mod rcond;
+pub mod scaling;
+
+use nalgebra::{DMatrix, Matrix3};
+use serde::Serialize;
+
+use crate::boundary::BoundaryJacobians;
+use crate::error::{Error, Violations};
+use crate::kinetostatics::{RobotState, Solver};
+use crate::model::Model;
+use crate::rod::Wrench;
+use crate::rod::tendon::tension;
+use lanczos::{Lanczos, Start};
+use qr::{LegQr, Scales, back_substitute};
+
+pub use ellipsoid::Ellipsoid;
+pub use scaling::UnitScaling;
+
+/// Thresholds of the singularity flags, on raw SI rcond values.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AnalysisSettings {
+    /// Type I (loss of actuation authority) when rcond(\[B_q B_u\]) is below this.
+    pub type_i_threshold: f64,
+    /// Type II (uncontrolled platform motion) when rcond(\[B_x B_u\]) is below this
+    /// (paper Sec. V-B: ε_s = 3.5e-9).
+    pub type_ii_threshold: f64,
+    /// Leg singularity when rcond(B_u) is below this. Independently of it, a leg is also
+    /// flagged when both tendons of one of its antagonistic pairs carry no tension
+    /// (γ ≤ 0 for both): the pair's actuator then moves nothing but slack, whatever the
+    /// conditioning of B_u (paper Sec. V-D).
+    pub leg_threshold: f64,
+}
+
+impl Default for AnalysisSettings {
+    /// The paper's ε_s = 3.5e-9 for Type II. The same value for Type I and legs: the
+    /// three matrices share B_u and its scale (on the reference design at home their raw
+    /// rcond is 1.0e-8, 3.2e-8 and 3.2e-8), and rcond(B_u) falls below it when the last
+    /// taut tendon of a pair carries less than about 10 mN.
+    fn default() -> Self {
+        Self {
+            type_i_threshold: 3.5e-9,
+            type_ii_threshold: 3.5e-9,
+            leg_threshold: 3.5e-9,
+        }
+    }
+}
+
+/// Reciprocal condition numbers σ_min/σ_max of the analysis' matrices.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Rconds {
+    /// \[B_x B_u\] (Type II measure).
+    pub b_xu: f64,
+    /// \[B_q B_u\] (Type I measure).
+    pub b_qu: f64,
+    /// B_u (leg-singularity measure).
+    pub b_u: f64,
+    /// J_p (isotropy of the position manipulability ellipsoid).
+    pub j_p: f64,
+    /// J_o (isotropy of the orientation manipulability ellipsoid).
+    pub j_o: f64,
+    /// C_p (isotropy of the position compliance ellipsoid).
+    pub c_p: f64,
+    /// C_o (isotropy of the orientation compliance ellipsoid).
+    pub c_o: f64,
+}
+
+/// Which singularities the configuration is at or near.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Singularity {
+    /// rcond(\[B_q B_u\]) below [`AnalysisSettings::type_i_threshold`].
+    pub type_i: bool,
+    /// rcond(\[B_x B_u\]) below [`AnalysisSettings::type_ii_threshold`].
+    pub type_ii: bool,
+    /// rcond(B_u) below [`AnalysisSettings::leg_threshold`], or a tendon pair with both
+    /// tendons slack.
+    pub leg: bool,
+}
+
+/// The four ellipsoids of paper Fig. 8 (raw SI).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ellipsoids {
+    /// Position manipulability, from J_p \[m/m\].
+    pub j_p: Ellipsoid,
+    /// Orientation manipulability, from J_o \[rad/m\].
+    pub j_o: Ellipsoid,
+    /// Position compliance, from C_p \[m/N\].
+    pub c_p: Ellipsoid,
+    /// Orientation compliance, from C_o \[rad/(N·m)\].
+    pub c_o: Ellipsoid,
+}
+
+/// Everything the linearization says about one configuration (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Analysis {
+    /// J_FK = ∂x/∂q (6 × n_q): rows δp \[m\], δθ \[rad\]; columns q \[m\].
+    pub j_fk: DMatrix<f64>,
+    /// Λ_FK = ∂y_u/∂q (3 (6 + n_t) × n_q).
+    pub lambda_fk: DMatrix<f64>,
+    /// J_IK = ∂q/∂x (n_q × 6); the least-‖δq‖ right inverse of J_FK for the 9-DoF design.
+    pub j_ik: DMatrix<f64>,
+    /// Λ_IK = ∂y_u/∂x (3 (6 + n_t) × 6).
+    pub lambda_ik: DMatrix<f64>,
+    /// Compliance C = ∂x/∂w (6 × 6): columns f_ext \[N\], l_ext \[N·m\].
+    pub compliance: DMatrix<f64>,
+    /// Λ_C = ∂y_u/∂w (3 (6 + n_t) × 6).
+    pub lambda_c: DMatrix<f64>,
+    /// rcond of the raw SI matrices (as in the paper).
+    pub rcond: Rconds,
+    /// rcond of the unit-scaled matrices ([`UnitScaling`]); C_p and C_o scale uniformly,
+    /// so their values equal the raw ones.
+    pub rcond_scaled: Rconds,
+    /// Singularity flags from the raw rcond values and the tendon states.
+    pub singularity: Singularity,
+    /// Manipulability and compliance ellipsoids (raw SI).
+    pub ellipsoids: Ellipsoids,
+    /// Smallest tendon tension over all tendons of all legs \[N\] (0 if any is slack).
+    pub min_tension: f64,
+}
+
+impl Analysis {
+    /// Position Jacobian J_p = rows 0..3 of J_FK (3 × n_q) \[m/m\].
+    pub fn j_p(&self) -> DMatrix<f64> {
+        self.j_fk.rows(0, 3).into_owned()
+    }
+
+    /// Orientation Jacobian J_o = rows 3..6 of J_FK (3 × n_q) \[rad/m\].
+    pub fn j_o(&self) -> DMatrix<f64> {
+        self.j_fk.rows(3, 3).into_owned()
+    }
+
+    /// Position compliance C_p = C\[0..3, 0..3\] \[m/N\].
+    pub fn c_p(&self) -> Matrix3<f64> {
+        self.compliance.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// Orientation compliance C_o = C\[3..6, 3..6\] \[rad/(N·m)\].
+    pub fn c_o(&self) -> Matrix3<f64> {
+        self.compliance.fixed_view::<3, 3>(3, 3).into_owned()
+    }
+}
+
+/// An analysis that cannot be carried out.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AnalysisError {
+    /// A matrix that must be inverted is exactly singular (or its solution overflows).
+    #[error("{matrix} is singular (rcond {rcond:.2e}): {undefined} do not exist here")]
+    Singular {
+        /// Which matrix, e.g. `[B_x B_u]`.
+        matrix: &'static str,
+        /// Its raw rcond.
+        rcond: f64,
+        /// What cannot be computed because of it.
+        undefined: &'static str,
+    },
+    /// A block or vector does not fit the model.
+    #[error("{what} is {found}: expected {expected} for this model")]
+    Shape {
+        /// Which input.
+        what: &'static str,
+        /// Its size.
+        found: String,
+        /// The size the model needs.
+        expected: String,
+    },
+    /// An input holds NaN or infinity.
+    #[error("non-finite value in {what}")]
+    NonFinite {
+        /// Which input.
+        what: &'static str,
+    },
+}
+
+/// Analyses a configuration from its exact blocks (evaluated with γ tendon unknowns at
+/// `y_u`), without any leg integration. `y_u` gives the tendon states (tensions, slack
+/// pairs).
+///
+/// # Errors
+/// [`AnalysisError::Shape`] if the blocks or `y_u` do not fit `model`;
+/// [`AnalysisError::NonFinite`] for NaN or infinite inputs; [`AnalysisError::Singular`]
+/// if \[B_x B_u\] is exactly singular.
+pub fn analyze_blocks(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    y_u: &[f64],
+    settings: &AnalysisSettings,
+) -> Result<Analysis, AnalysisError> {
+    check_inputs(model, blocks, y_u)?;
+    let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
+    let ny = 3 * nu;
+    let n = ny + 6;
+    let mut lz = Lanczos::new(n + 3);
+    let mut raw = Triangles::new(blocks, nu, None, &mut lz);
+    let scaling = UnitScaling::new(model);
+    let row_scale: Vec<f64> = (0..n).map(|i| 1.0 / scaling.row(i)).collect();
+    let col_scales: [Vec<f64>; 3] = [
+        (0..ny).map(|j| scaling.leg_unknown(j)).collect(),
+        (0..6).map(|c| scaling.pose(c)).collect(),
+        (0..nq).map(|j| scaling.actuation(j)).collect(),
+    ];
+    let cols = [&col_scales[0][..], &col_scales[1], &col_scales[2]];
+    let scales = Scales {
+        rows: &row_scale,
+        cols: &cols,
+    };
+    let scaled = Triangles::new(blocks, nu, Some(scales), &mut lz);
+
+    // [B_u B_x] [δy; δx] = −[B_q B_w] [δq; δw]; with Qᵀ applied, R_x Z = Qᵀ [B_q B_w].
+    if !back_substitute(&mut raw.x, n, n..n + nq + 6) || !raw.x.w.iter().all(|x| x.is_finite()) {
+        return Err(AnalysisError::Singular {
+            matrix: "[B_x B_u]",
+            rcond: raw.rconds[0],
+            undefined: "J_FK, Λ_FK, C and Λ_C",
+        });
+    }
+    let z = &raw.x.w;
+    let j_fk = -z.view((ny, n), (6, nq));
+    let lambda_fk = -z.view((0, n), (ny, nq));
+    let compliance = -z.view((ny, n + nq), (6, 6));
+    let lambda_c = -z.view((0, n + nq), (ny, 6));
+    let raw_blocks = raw.rconds;
+    let scaled_rconds = scaled.rconds;
+
+    let (j_ik, lambda_ik) = inverse_jacobian(&mut raw, &j_fk, &lambda_fk);
+
+    let ellipsoids = Ellipsoids {
+        j_p: Ellipsoid::of(&j_fk.rows(0, 3).into_owned()),
+        j_o: Ellipsoid::of(&j_fk.rows(3, 3).into_owned()),
+        c_p: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
+        c_o: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
+    };
+    let rcond = Rconds {
+        b_xu: raw_blocks[0],
+        b_qu: raw_blocks[1],
+        b_u: raw_blocks[2],
+        j_p: ellipsoids.j_p.rcond(),
+        j_o: ellipsoids.j_o.rcond(),
+        c_p: ellipsoids.c_p.rcond(),
+        c_o: ellipsoids.c_o.rcond(),
+    };
+    let scaled_j = DMatrix::from_fn(6, nq, |r, c| {
+        j_fk[(r, c)] * scaling.actuation(c) / scaling.pose(r)
+    });
+    let rcond_scaled = Rconds {
+        b_xu: scaled_rconds[0],
+        b_qu: scaled_rconds[1],
+        b_u: scaled_rconds[2],
+        j_p: Ellipsoid::of(&scaled_j.rows(0, 3).into_owned()).rcond(),
+        j_o: Ellipsoid::of(&scaled_j.rows(3, 3).into_owned()).rcond(),
+        // Uniformly scaled blocks: σ_min/σ_max unchanged.
+        c_p: rcond.c_p,
+        c_o: rcond.c_o,
+    };
+    let singularity = Singularity {
+        type_i: rcond.b_qu < settings.type_i_threshold,
+        type_ii: rcond.b_xu < settings.type_ii_threshold,
+        leg: rcond.b_u < settings.leg_threshold || slack_pair(model, y_u),
+    };
+    Ok(Analysis {
+        j_fk,
+        lambda_fk,
+        j_ik,
+        lambda_ik,
+        compliance,
+        lambda_c,
+        rcond,
+        rcond_scaled,
+        singularity,
+        ellipsoids,
+        min_tension: min_tension(model, y_u),
+    })
+}
+
+impl Solver {
+    /// Analyses `state` (normally a solution of [`Solver::solve_fk`] or
+    /// [`Solver::solve_ik`]) under the platform weight plus `extra`: evaluates the exact
+    /// blocks there (three leg integrations with sensitivities) and calls
+    /// [`analyze_blocks`].
+    ///
+    /// # Errors
+    /// [`Error::Input`] for a state or wrench of the wrong size or with non-finite
+    /// values, or thresholds that are negative or not finite; [`Error::Solve`] if a leg
+    /// integration blows up; [`Error::Analysis`] as [`analyze_blocks`].
+    pub fn analyze(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        settings: &AnalysisSettings,
+    ) -> Result<Analysis, Error> {
+        let mut v = Violations::default();
+        let model = self.model();
+        for (field, found, expected) in [
+            ("state.q", state.q.len(), model.n_actuators()),
+            ("state.y_u", state.y_u.len(), 3 * model.n_leg_unknowns()),
+        ] {
+            if found != expected {
+                v.push(
+                    field,
+                    format!("{found} values"),
+                    &format!("{expected} values"),
+                );
+            }
+        }
+        let values = state.position.iter().chain(&state.rotvec).chain(&state.q);
+        if !values.chain(&state.y_u).all(|x| x.is_finite()) {
+            v.push("state", "a non-finite value", "finite numbers");
+        }
+        if !extra
+            .force
+            .iter()
+            .chain(&extra.moment)
+            .all(|x| x.is_finite())
+        {
+            v.push("wrench", "a non-finite value", "finite numbers");
+        }
+        for (field, x) in [
+            ("type_i_threshold", settings.type_i_threshold),
+            ("type_ii_threshold", settings.type_ii_threshold),
+            ("leg_threshold", settings.leg_threshold),
+        ] {
+            if !(x.is_finite() && x >= 0.0) {
+                v.push(field, x, ">= 0 and finite");
+            }
+        }
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        self.blocks_at(state, extra)?;
+        let (model, blocks) = self.model_and_blocks();
+        Ok(analyze_blocks(model, blocks, &state.y_u, settings)?)
+    }
+}
+
+/// Sizes and finiteness of the inputs.
+fn check_inputs(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    y_u: &[f64],
+) -> Result<(), AnalysisError> {
+    let (n, nq, ny) = (
+        model.n_residuals(),
+        model.n_actuators(),
+        3 * model.n_leg_unknowns(),
+    );
+    for (what, m, cols) in [
+        ("b_x", &blocks.b_x, 6),
+        ("b_q", &blocks.b_q, nq),
+        ("b_w", &blocks.b_w, 6),
+        ("b_u", &blocks.b_u, ny),
+    ] {
+        if m.shape() != (n, cols) {
+            return Err(AnalysisError::Shape {
+                what,
+                found: format!("{}×{}", m.nrows(), m.ncols()),
+                expected: format!("{n}×{cols}"),
+            });
+        }
+        if !m.iter().all(|x| x.is_finite()) {
+            return Err(AnalysisError::NonFinite { what });
+        }
+    }
+    if y_u.len() != ny {
+        return Err(AnalysisError::Shape {
+            what: "y_u",
+            found: format!("{} values", y_u.len()),
+            expected: format!("{ny} values"),
+        });
+    }
+    if !y_u.iter().all(|x| x.is_finite()) {
+        return Err(AnalysisError::NonFinite { what: "y_u" });
+    }
+    Ok(())
+}
+
+/// J_IK and Λ_IK (see the module docs).
+fn inverse_jacobian(
+    raw: &mut Triangles,
+    j_fk: &DMatrix<f64>,
+    lambda_fk: &DMatrix<f64>,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    if let Some(qr) = &mut raw.q {
+        // [B_u B_q] [δy; δq] = −B_x δx; the pose columns follow R_q.
+        let ny = qr.ny;
+        let n = ny + 6;
+        if back_substitute(qr, n, n..n + 6) {
+            let z = qr.w.columns(n, 6);
+            if z.iter().all(|x| x.is_finite()) {
+                return (-z.rows(ny, 6), -z.rows(0, ny));
+            }
+        }
+    }
+    let j_ik = right_inverse(j_fk);
+    let lambda_ik = lambda_fk * &j_ik;
+    (j_ik, lambda_ik)
+}
+
+/// The triangular factors of \[B_u B_x\], B_u and (if square) \[B_u B_q\] from one
+/// [`LegQr`], and the rcond of the three matrices.
+struct Triangles {
+    /// Columns \[R_x | Qᵀ B_q | Qᵀ B_w\] (B_w only without scales).
+    x: LegQr,
+    /// Columns \[R_q | Qᵀ B_x\] when \[B_q B_u\] is square (6-DoF design).
+    q: Option<LegQr>,
+    /// rcond of \[B_x B_u\], \[B_q B_u\], B_u.
+    rconds: [f64; 3],
+}
+
+impl Triangles {
+    /// Factors `[B_u | B_x | B_q (| B_w without scales)]`, scaled if `scales` are given.
+    fn new(b: &BoundaryJacobians, nu: usize, scales: Option<Scales>, lz: &mut Lanczos) -> Self {
+        let (ny, nq) = (b.b_u.ncols(), b.b_q.ncols());
+        let n = ny + 6;
+        let legs = if scales.is_some() {
+            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q], nu, scales)
+        } else {
+            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q, &b.b_w], nu, None)
+        };
+        let ncols = legs.w.ncols();
+        let (xc, qc) = (ny..n, n..n + nq);
+        let sigma_u = lz.sigma_max(legs.triangle(ny), Start::Random);
+        let v_u = lz.ritz().to_vec();
+        let rcond_u = ellipsoid::ratio(lz.sigma_min(legs.triangle(ny)), sigma_u);
+        // σ_max([B_u E]) lies in [σ_max(B_u), (σ_max(B_u)² + ‖E‖²)^½]: when that is
+        // narrower than the Lanczos tolerance, take its middle.
+        let column_norm = |qr: &LegQr, cols: std::ops::Range<usize>| {
+            cols.map(|c| qr.w.column(c).norm_squared()).sum::<f64>()
+        };
+        let sigma_max = |lz: &mut Lanczos, qr: &LegQr, extra: f64| {
+            if extra <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
+                0.5 * (sigma_u + (sigma_u * sigma_u + extra).sqrt())
+            } else {
+                lz.sigma_max(qr.triangle(n), Start::Given(&v_u))
+            }
+        };
+        let (norm_x, norm_q) = (
+            column_norm(&legs, xc.clone()),
+            column_norm(&legs, qc.clone()),
+        );
+        let (q, rcond_q) = if nq == 6 {
+            let mut q = legs.clone();
+            q.swap_columns(xc.clone(), qc.clone());
+            q.finish(xc.clone(), qc.clone());
+            let max = sigma_max(lz, &q, norm_q);
+            let rc = ellipsoid::ratio(lz.sigma_min(q.triangle(n)), max);
+            (Some(q), rc)
+        } else {
+            // Wide [B_u B_q] (n × (n + 3)): its σ are those of the tall transpose.
+            let mut wide = DMatrix::zeros(n, ny + nq);
+            wide.columns_mut(0, ny).copy_from(&legs.w.columns(0, ny));
+            wide.columns_mut(ny, nq)
+                .copy_from(&legs.w.columns(qc.start, nq));
+            let r_t = wide.transpose().qr().r();
+            let tri = qr::Triangle {
+                data: r_t.as_slice(),
+                n,
+                ld: n,
+            };
+            let min = lz.sigma_min(tri);
+            let max = if norm_q <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
+                0.5 * (sigma_u + (sigma_u * sigma_u + norm_q).sqrt())
+            } else {
+                lz.sigma_max(tri, Start::Random)
+            };
+            (None, ellipsoid::ratio(min, max))
+        };
+        let mut x = legs;
+        x.finish(xc.clone(), n..ncols);
+        let max = sigma_max(lz, &x, norm_x);
+        let rcond_x = ellipsoid::ratio(lz.sigma_min(x.triangle(n)), max);
+        Self {
+            x,
+            q,
+            rconds: [rcond_x, rcond_q, rcond_u],
+        }
+    }
+}
+
+/// The Moore–Penrose pseudo-inverse of a 6 × n_q Jacobian (singular values below
+/// max(rows, cols)·ε·σ_max dropped).
+fn right_inverse(j: &DMatrix<f64>) -> DMatrix<f64> {
+    let svd = j.clone().svd(true, true);
+    let max = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    let cutoff = max * j.nrows().max(j.ncols()) as f64 * f64::EPSILON;
+    svd.pseudo_inverse(cutoff.max(f64::MIN_POSITIVE))
+        .unwrap_or_else(|_| DMatrix::zeros(j.ncols(), j.nrows()))
+}
+
+/// Whether some leg has an antagonistic pair with both tendons slack (τ = 0).
+fn slack_pair(model: &Model, y_u: &[f64]) -> bool {
+    let nu = model.n_leg_unknowns();
+    (0..3).any(|leg| {
+        (0..model.pairs).any(|j| {
+            let g = &y_u[leg * nu + 2 * j..];
+            tension(g[0]) == 0.0 && tension(g[1]) == 0.0
+        })
+    })
+}
+
+/// Smallest tension over all tendons \[N\].
+fn min_tension(model: &Model, y_u: &[f64]) -> f64 {
+    let nu = model.n_leg_unknowns();
+    (0..3)
+        .flat_map(|leg| y_u[leg * nu..leg * nu + model.n_tendons()].iter())
+        .map(|&g| tension(g))
+        .fold(f64::INFINITY, f64::min)
+}

@@ -1,0 +1,326 @@
+//! Householder QR of the boundary blocks that follows their leg structure.
+//!
+//! Leg i's unknowns (columns of B_u) appear only in the 6 platform rows and in leg i's
+//! own 6 + n_t rows (MODEL.md §3 order). The rows are held as \[leg 1, platform, leg 2,
+//! leg 3\]; after leg 1's columns are reduced the platform rows move down past leg 2's,
+//! and so on, so each reflector acts on one contiguous run of at most 6 + n_t + 6 rows,
+//! and rows of legs not yet reached stay zero. The result is Qᵀ B_u = \[R_u; 0\] with R_u
+//! square upper-triangular (rows \[leg 1, leg 2, leg 3\], then the 6 platform rows), for a
+//! fraction of a dense QR. The same reflectors applied to extra columns (B_x, B_q, B_w)
+//! leave a 6-row remainder below R_u; a 6 × 6 QR of the remainder of the pose (or
+//! actuation) columns then makes \[B_u B_x\] (or \[B_u B_q\]) triangular. Orthogonal
+//! transforms keep singular values: σ(\[B_x B_u\]) = σ(R_x), and R_x solves the Jacobian
+//! systems.
+
+use std::ops::Range;
+
+use nalgebra::DMatrix;
+
+/// Platform rows (force and moment balance).
+const PLATFORM: usize = 6;
+
+/// The transformed blocks: rows \[leg rows (n_y), platform rows (6)\], columns
+/// \[B_u (n_y) | extra blocks in the order given\].
+#[derive(Debug, Clone)]
+pub(crate) struct LegQr {
+    /// Qᵀ Π \[B_u | extra\]: R_u in the top-left n_y × n_y, zeros below it.
+    pub w: DMatrix<f64>,
+    /// Leg unknowns (columns of B_u) n_y = 3 n_u.
+    pub ny: usize,
+}
+
+/// A triangular n × n matrix stored column-major with leading dimension `ld` (a view
+/// into a [`LegQr`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Triangle<'a> {
+    /// Column-major entries; column j starts at j·ld.
+    pub data: &'a [f64],
+    /// Order.
+    pub n: usize,
+    /// Leading dimension (≥ n).
+    pub ld: usize,
+}
+
+impl Triangle<'_> {
+    /// Column j's entries on and above the diagonal.
+    pub fn column(&self, j: usize) -> &[f64] {
+        &self.data[j * self.ld..j * self.ld + j + 1]
+    }
+
+    /// Whether a diagonal entry is zero or not finite.
+    pub fn is_singular(&self) -> bool {
+        (0..self.n).any(|j| {
+            let d = self.data[j * self.ld + j];
+            d == 0.0 || !d.is_finite()
+        })
+    }
+}
+
+impl LegQr {
+    /// Factors `blocks[0]` = B_u (rows × 3 n_u, MODEL.md §3 row order) and applies the
+    /// reflectors to the other blocks (same rows). Entry (i, j) of block b is loaded as
+    /// `row_scale[i] · value · col_scales[b][j]` when scales are given.
+    ///
+    /// # Panics
+    /// If the sizes do not agree (a programmer error; callers check the model).
+    #[track_caller]
+    pub fn new(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
+        let ny = blocks[0].ncols();
+        let m = blocks[0].nrows();
+        assert!(ny == 3 * nu && m == ny + PLATFORM, "LegQr: block sizes");
+        let ncols: usize = blocks.iter().map(|b| b.ncols()).sum();
+        // Load order: leg 1 (original rows 6..6 + nu), platform (0..6), legs 2 and 3.
+        let original = |r: usize| {
+            if r < nu {
+                PLATFORM + r
+            } else if r < nu + PLATFORM {
+                r - nu
+            } else {
+                r
+            }
+        };
+        let mut w = DMatrix::zeros(m, ncols);
+        let data = w.as_mut_slice();
+        let mut col = 0;
+        for (b, block) in blocks.iter().enumerate() {
+            assert_eq!(block.nrows(), m, "LegQr: block rows");
+            for c in 0..block.ncols() {
+                let src = block.column(c);
+                let dst = &mut data[col * m..(col + 1) * m];
+                match &scales {
+                    None => {
+                        for (r, x) in dst.iter_mut().enumerate() {
+                            *x = src[original(r)];
+                        }
+                    }
+                    Some(s) => {
+                        let cs = s.cols[b][c];
+                        for (r, x) in dst.iter_mut().enumerate() {
+                            let i = original(r);
+                            *x = s.rows[i] * src[i] * cs;
+                        }
+                    }
+                }
+                col += 1;
+            }
+        }
+        let mut qr = Self { w, ny };
+        for leg in 0..3 {
+            for j in leg * nu..(leg + 1) * nu {
+                qr.reflect(j, (leg + 1) * nu + PLATFORM, j + 1..ncols, 0..0);
+            }
+            if leg < 2 {
+                // Move the platform rows below the next leg's rows.
+                let run = (leg + 1) * nu..(leg + 2) * nu + PLATFORM;
+                for column in qr.w.as_mut_slice().chunks_exact_mut(m) {
+                    column[run.clone()].rotate_left(PLATFORM);
+                }
+            }
+        }
+        qr
+    }
+
+    /// Triangularizes the 6-row remainder of the columns `cols` (one reflector per
+    /// column over the platform rows), applying the reflectors to the columns `also`.
+    pub fn finish(&mut self, cols: Range<usize>, also: Range<usize>) {
+        let m = self.w.nrows();
+        for (k, c) in cols.clone().enumerate().take(m - self.ny) {
+            self.reflect_at(c, self.ny + k, m, c + 1..cols.end, also.clone());
+        }
+    }
+
+    /// Swaps two column ranges of equal length.
+    pub fn swap_columns(&mut self, a: Range<usize>, b: Range<usize>) {
+        for (i, j) in a.zip(b) {
+            self.w.swap_columns(i, j);
+        }
+    }
+
+    /// The leading `n` × `n` triangle (R_u for n = n_y; R_x or R_q for n = n_y + 6 after
+    /// [`LegQr::finish`] on the columns right after B_u).
+    pub fn triangle(&self, n: usize) -> Triangle<'_> {
+        Triangle {
+            data: self.w.as_slice(),
+            n,
+            ld: self.w.nrows(),
+        }
+    }
+
+    /// Householder reflector for column `col` with its diagonal at row `col`.
+    fn reflect(&mut self, col: usize, end: usize, a: Range<usize>, b: Range<usize>) {
+        self.reflect_at(col, col, end, a, b);
+    }
+
+    /// Householder reflector H = I − τ v vᵀ that zeroes column `col` over rows
+    /// `diag + 1..end` into row `diag`, applied to the column ranges `a` and `b`.
+    fn reflect_at(
+        &mut self,
+        col: usize,
+        diag: usize,
+        end: usize,
+        a: Range<usize>,
+        b: Range<usize>,
+    ) {
+        let m = self.w.nrows();
+        let data = self.w.as_mut_slice();
+        let mut v = [0.0; 2 * (6 + crate::design::MAX_TENDONS) + PLATFORM];
+        let len = end - diag;
+        let v = &mut v[..len];
+        v.copy_from_slice(&data[col * m + diag..col * m + end]);
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm == 0.0 || !norm.is_finite() {
+            return;
+        }
+        let alpha = if v[0] > 0.0 { -norm } else { norm };
+        v[0] -= alpha;
+        let tau = 2.0 / v.iter().map(|x| x * x).sum::<f64>();
+        if len <= BLOCK && BLOCK <= m {
+            // Fixed-length kernel on a window of BLOCK rows around diag..end: the other
+            // rows of the window see a zero multiple of v.
+            let start = diag.min(m - BLOCK);
+            let mut vp = [0.0; BLOCK];
+            vp[diag - start..diag - start + len].copy_from_slice(v);
+            for c in a.chain(b) {
+                let x: &mut [f64; BLOCK] = (&mut data[c * m + start..c * m + start + BLOCK])
+                    .try_into()
+                    .expect("BLOCK rows");
+                apply_block(&vp, tau, x);
+            }
+        } else {
+            for c in a.chain(b) {
+                let x = &mut data[c * m + diag..c * m + end];
+                let s = tau * super::lanczos::dot(x, v);
+                if s != 0.0 {
+                    for (p, q) in x.iter_mut().zip(v.iter()) {
+                        *p -= s * q;
+                    }
+                }
+            }
+        }
+        let x = &mut data[col * m + diag..col * m + end];
+        x.fill(0.0);
+        x[0] = alpha;
+    }
+}
+
+/// Rows of the fixed-length reflector kernel (a leg's rows plus the platform rows fit
+/// for up to 4 tendons per leg).
+const BLOCK: usize = 16;
+
+/// x ← (I − τ v vᵀ) x for one column of BLOCK rows.
+#[inline]
+fn apply_block(v: &[f64; BLOCK], tau: f64, x: &mut [f64; BLOCK]) {
+    let mut acc = [0.0; 4];
+    for i in 0..BLOCK / 4 {
+        for l in 0..4 {
+            acc[l] += v[4 * i + l] * x[4 * i + l];
+        }
+    }
+    let s = tau * ((acc[0] + acc[1]) + (acc[2] + acc[3]));
+    for (p, q) in x.iter_mut().zip(v) {
+        *p -= s * q;
+    }
+}
+
+/// Row and column scalings applied while loading the blocks.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Scales<'a> {
+    /// Factor of each original row.
+    pub rows: &'a [f64],
+    /// Factor of each column, per block.
+    pub cols: &'a [&'a [f64]],
+}
+
+/// Solves R X = B in place for the triangle R and the columns `b` of `w` (back
+/// substitution), where R is the leading n × n block of `w`. Returns false if a diagonal
+/// entry of R is zero.
+pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool {
+    if qr.triangle(n).is_singular() {
+        return false;
+    }
+    let m = qr.w.nrows();
+    let (left, right) = qr.w.as_mut_slice().split_at_mut(b.start * m);
+    for x in right[..b.len() * m].chunks_exact_mut(m) {
+        for j in (0..n).rev() {
+            let column = &left[j * m..j * m + j + 1];
+            let xj = x[j] / column[j];
+            x[j] = xj;
+            if xj != 0.0 {
+                for (xi, rij) in x[..j].iter_mut().zip(&column[..j]) {
+                    *xi -= rij * xj;
+                }
+            }
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic pseudo-random entries in [−1, 1).
+    fn noise(i: usize, j: usize, seed: u64) -> f64 {
+        let mut z = (i as u64 * 0x9E37_79B9 + j as u64 * 0x85EB_CA6B) ^ seed;
+        z = (z ^ (z >> 15)).wrapping_mul(0x2C1B_3C6D);
+        z = (z ^ (z >> 12)).wrapping_mul(0x297A_2D39);
+        ((z ^ (z >> 15)) % 2_000_000) as f64 / 1e6 - 1.0
+    }
+
+    /// A random matrix with the boundary blocks' sparsity: leg i's columns only in the
+    /// platform rows and its own rows.
+    fn structured(nu: usize) -> DMatrix<f64> {
+        let ny = 3 * nu;
+        DMatrix::from_fn(ny + PLATFORM, ny, |i, j| {
+            let own = i >= PLATFORM && (i - PLATFORM) / nu == j / nu;
+            if i < PLATFORM || own {
+                ((i * 31 + j * 17) as f64 * 0.618).sin()
+                    + if own && i - PLATFORM == j { 2.0 } else { 0.0 }
+            } else {
+                0.0
+            }
+        })
+    }
+
+    #[test]
+    fn r_u_and_the_transformed_columns_reproduce_the_dense_qr() {
+        for nu in [8, 10] {
+            let b_u = structured(nu);
+            let n = b_u.nrows();
+            let x = DMatrix::from_fn(n, 6, |i, j| noise(i, j, 2));
+            let mut qr = LegQr::new(&[&b_u, &x], nu, None);
+            qr.finish(3 * nu..3 * nu + 6, 0..0);
+            let r = qr.triangle(n);
+            // RᵀR = MᵀM for M = [B_u x] (Q orthogonal).
+            let mut full = DMatrix::zeros(n, n);
+            full.columns_mut(0, 3 * nu).copy_from(&b_u);
+            full.columns_mut(3 * nu, 6).copy_from(&x);
+            let dense =
+                DMatrix::from_fn(n, n, |i, j| if i <= j { r.data[j * r.ld + i] } else { 0.0 });
+            let err = (dense.transpose() * &dense - full.transpose() * &full)
+                .abs()
+                .max();
+            assert!(err < 1e-12, "nu = {nu}: |RᵀR − MᵀM| = {err:.2e}");
+            // Strictly lower part is zero.
+            assert!((0..n).all(|j| (j + 1..n).all(|i| qr.w[(i, j)] == 0.0)));
+        }
+    }
+
+    #[test]
+    fn back_substitution_solves_the_original_system() {
+        let nu = 8;
+        let b_u = structured(nu);
+        let n = b_u.nrows();
+        let x = DMatrix::from_fn(n, 6, |i, j| noise(i, j, 3));
+        let rhs = DMatrix::from_fn(n, 2, |i, j| (i + j) as f64);
+        let mut qr = LegQr::new(&[&b_u, &x, &rhs], nu, None);
+        qr.finish(n - 6..n, n..n + 2);
+        assert!(back_substitute(&mut qr, n, n..n + 2));
+        let z = qr.w.columns(n, 2).into_owned();
+        let mut full = DMatrix::zeros(n, n);
+        full.columns_mut(0, n - 6).copy_from(&b_u);
+        full.columns_mut(n - 6, 6).copy_from(&x);
+        let err = (&full * &z - &rhs).abs().max();
+        assert!(err < 1e-11, "residual {err:.2e}");
+    }
+}

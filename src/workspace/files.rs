@@ -1,0 +1,176 @@
+//! The workspace map on disk: `points.csv`, `summary.json` and the slice figures, each
+//! written atomically (a temporary file in the same directory, then a rename), so an
+//! interrupted run leaves either the complete file or none.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use crate::error::Error;
+use crate::workspace::{WorkspaceMap, figures};
+
+/// Writes `contents` to `path` through a temporary file in the same directory and a
+/// rename (atomic on POSIX file systems); the temporary file is removed on failure.
+///
+/// # Errors
+/// [`Error::Output`] with the path and the I/O error.
+pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), Error> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| -> io::Result<()> {
+        let mut f = fs::File::create(&tmp)?;
+        f.write_all(contents)?;
+        f.sync_all()?;
+        fs::rename(&tmp, path)
+    })();
+    result.map_err(|source| {
+        let _ = fs::remove_file(&tmp);
+        Error::Output {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+/// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
+/// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
+/// rcond_c_o`), the same unit-scaled (`rcond_scaled_...`), then the flags
+/// `near_type_i, near_type_ii, near_leg_singularity, collision` (0 or 1).
+pub fn csv_header(n_actuators: usize, tendons_per_leg: usize) -> Vec<String> {
+    let mut h: Vec<String> = ["x", "y", "z"].map(String::from).to_vec();
+    h.extend((1..=n_actuators).map(|i| format!("q{i}")));
+    for leg in 1..=3 {
+        h.extend((1..=tendons_per_leg).map(|k| format!("tau_{leg}_{k}")));
+    }
+    h.push("min_tension".into());
+    const RCONDS: [&str; 7] = ["b_xu", "b_qu", "b_u", "j_p", "j_o", "c_p", "c_o"];
+    h.extend(RCONDS.iter().map(|r| format!("rcond_{r}")));
+    h.extend(RCONDS.iter().map(|r| format!("rcond_scaled_{r}")));
+    h.extend(
+        [
+            "near_type_i",
+            "near_type_ii",
+            "near_leg_singularity",
+            "collision",
+        ]
+        .map(String::from),
+    );
+    h
+}
+
+/// `points.csv` as text: the header of [`csv_header`], then one line per cell (reachable
+/// and collision), in the map's order. Numbers are written with the shortest digits that
+/// read back to the same f64 (exponent form below 1e-4).
+pub fn points_csv(map: &WorkspaceMap) -> String {
+    let mut out = csv_header(map.n_actuators, map.tendons_per_leg).join(",");
+    out.push('\n');
+    let flag = |b: bool| if b { "1" } else { "0" };
+    for p in &map.points {
+        let (r, s, m) = (&p.metrics.rcond, &p.metrics.rcond_scaled, &p.metrics);
+        let numbers = p
+            .position
+            .iter()
+            .chain(&p.state.q)
+            .chain(&p.tensions)
+            .chain([&m.min_tension])
+            .chain([&r.b_xu, &r.b_qu, &r.b_u, &r.j_p, &r.j_o, &r.c_p, &r.c_o])
+            .chain([&s.b_xu, &s.b_qu, &s.b_u, &s.j_p, &s.j_o, &s.c_p, &s.c_o]);
+        for x in numbers {
+            // Every value is finite by construction; guard anyway (no NaN in outputs).
+            let x = if x.is_finite() { *x } else { 0.0 };
+            // Shortest round-trip digits; exponent form for tiny values (rcond ~ 1e-9).
+            let _ = if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
+                write!(out, "{x},")
+            } else {
+                write!(out, "{x:e},")
+            };
+        }
+        let f = &m.singularity;
+        let _ = writeln!(
+            out,
+            "{},{},{},{}",
+            flag(f.type_i),
+            flag(f.type_ii),
+            flag(f.leg),
+            flag(p.collision)
+        );
+    }
+    out
+}
+
+/// Writes `points.csv`, `summary.json` and the slice figures of [`figures`] into `dir`
+/// (created if missing). Returns the paths written, in that order.
+///
+/// # Errors
+/// [`Error::Output`] naming the file that could not be written.
+pub fn write_outputs(map: &WorkspaceMap, dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    fs::create_dir_all(dir).map_err(|source| Error::Output {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let mut written = Vec::new();
+    let points = dir.join("points.csv");
+    write_atomically(&points, points_csv(map).as_bytes())?;
+    written.push(points);
+    let summary = dir.join("summary.json");
+    let json = serde_json::to_string_pretty(&map.summary).expect("plain data serializes");
+    write_atomically(&summary, (json + "\n").as_bytes())?;
+    written.push(summary);
+    for (name, svg) in figures::slice_figures(map) {
+        let path = dir.join(name);
+        write_atomically(&path, svg.as_bytes())?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn atomic_write_replaces_the_file_and_leaves_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("tdpcr-atomic-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("a.txt");
+        write_atomically(&path, b"first").unwrap();
+        write_atomically(&path, b"second").unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "second");
+        let names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names.len(), 1, "{names:?}");
+        // A directory that does not exist: an error naming the path, nothing left behind.
+        let bad = dir.join("missing").join("b.txt");
+        let msg = write_atomically(&bad, b"x").unwrap_err().to_string();
+        assert!(
+            msg.contains("cannot write") && msg.contains("b.txt"),
+            "{msg}"
+        );
+        fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn header_names_every_column_in_order() {
+        let h = csv_header(6, 2).join(",");
+        assert!(
+            h.starts_with("x,y,z,q1,q2,q3,q4,q5,q6,tau_1_1,tau_1_2,tau_2_1,"),
+            "{h}"
+        );
+        assert!(h.contains(",tau_3_2,min_tension,rcond_b_xu,rcond_b_qu,rcond_b_u,rcond_j_p,"));
+        assert!(h.contains(",rcond_c_o,rcond_scaled_b_xu,"));
+        assert!(
+            h.ends_with("rcond_scaled_c_o,near_type_i,near_type_ii,near_leg_singularity,collision")
+        );
+        assert_eq!(csv_header(9, 4).len(), 3 + 9 + 12 + 1 + 14 + 4);
+    }
+}

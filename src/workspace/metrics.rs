@@ -1,0 +1,72 @@
+//! The per-point measures of the workspace map (MODEL.md §4, §6): reciprocal condition
+//! numbers (raw SI and unit-scaled), singularity flags and the minimum tendon tension at a
+//! solved state, from the kinetostatic analysis ([`crate::analysis`]). Every point of a
+//! sweep goes through [`point_metrics`] and nothing else.
+
+use serde::Serialize;
+
+use crate::analysis::AnalysisError;
+pub use crate::analysis::{AnalysisSettings, Rconds, Singularity};
+use crate::error::Error;
+use crate::kinetostatics::{RobotState, Solver};
+use crate::rod::Wrench;
+
+/// Everything the workspace map records about one solved point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PointMetrics {
+    /// rcond of the raw SI matrices (as the paper).
+    pub rcond: Rconds,
+    /// rcond of the unit-scaled matrices (for design scoring; scaling in
+    /// [`crate::analysis::scaling`]).
+    pub rcond_scaled: Rconds,
+    /// Singularity flags.
+    pub singularity: Singularity,
+    /// Smallest tendon tension over all legs \[N\].
+    pub min_tension: f64,
+}
+
+/// The measures at a solved `state` (platform weight only, no extra wrench). Where
+/// \[B_x B_u\] is exactly singular (J_FK and C do not exist) every rcond is 0 and the
+/// point is flagged near Type II only.
+///
+/// # Errors
+/// As [`Solver::analyze`], except [`AnalysisError::Singular`] (handled as above).
+pub fn point_metrics(
+    solver: &mut Solver,
+    state: &RobotState,
+    settings: &AnalysisSettings,
+) -> Result<PointMetrics, Error> {
+    match solver.analyze(state, &Wrench::default(), settings) {
+        Ok(a) => Ok(PointMetrics {
+            rcond: a.rcond,
+            rcond_scaled: a.rcond_scaled,
+            singularity: a.singularity,
+            min_tension: a.min_tension,
+        }),
+        Err(Error::Analysis(AnalysisError::Singular { .. })) => {
+            let zero = Rconds {
+                b_xu: 0.0,
+                b_qu: 0.0,
+                b_u: 0.0,
+                j_p: 0.0,
+                j_o: 0.0,
+                c_p: 0.0,
+                c_o: 0.0,
+            };
+            let min_tension = super::tensions(solver.model(), state)
+                .into_iter()
+                .fold(f64::INFINITY, f64::min);
+            Ok(PointMetrics {
+                rcond: zero,
+                rcond_scaled: zero,
+                singularity: Singularity {
+                    type_i: false,
+                    type_ii: true,
+                    leg: false,
+                },
+                min_tension,
+            })
+        }
+        Err(e) => Err(e),
+    }
+}

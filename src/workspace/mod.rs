@@ -1,0 +1,979 @@
+//! The translational workspace for a fixed platform orientation R_ee (paper Sec. V-B,
+//! MODEL.md §6), by path following with warm-started IK:
+//!
+//! 1. From the home configuration (platform at the origin with orientation R_ee, solved
+//!    cold), a path along z in steps Δ reaches the origin (0, 0, z_k) of every xy-plane
+//!    z_k = k Δ in the z-range; the path up and the path down stop at the first invalid
+//!    step (a plane beyond is not reachable along the path).
+//! 2. From each plane's origin, rays at angles θ_j = j φ (j = 0 .. ⌈2π/φ⌉ − 1) are
+//!    followed outwards in steps Δ (point i at radius i Δ), each IK solve warm-started
+//!    from an extrapolation of the last solutions on the ray (the path along z likewise),
+//!    until a step is invalid: Newton does not converge (one run from the prediction, at
+//!    most [`WorkspaceSettings::max_iterations`] iterations, to
+//!    [`WorkspaceSettings::tolerance`]; no continuation fallback), any q is outside its
+//!    actuation limits, or a disk collides ([`collision`]; with
+//!    [`CollisionPolicy::Continue`] a colliding point is recorded as such and the ray
+//!    goes on). For the 9-DoF design the IK is the solver's least-norm IK.
+//! 3. **Gridding.** Space is divided into cubic cells of side Δ centred on the grid
+//!    (i Δ, j Δ, k Δ); the planes are the cell layers. Each solved point falls into the
+//!    cell of its nearest grid node; a cell is *reachable* if a valid (collision-free)
+//!    point fell into it, *collision* if only colliding points did. Each cell is
+//!    represented by one solved point: a valid one before a colliding one, then the one
+//!    nearest to the cell centre, then the first in (ray, step) order. So a count of
+//!    cells times Δ³ is a volume. Rays are denser than the grid near the plane origin and
+//!    sparser beyond the radius Δ/φ (86 mm at the paper's settings), where cells between
+//!    two rays can be missed: the volume is then a slight underestimate.
+//! 4. Every represented point gets the measures of [`metrics::point_metrics`] (rcond,
+//!    singularity flags, minimum tension).
+//!
+//! Rays run in parallel (rayon, the current thread pool; one solver per worker). Each ray
+//! depends only on its plane's origin state, and the cell representatives are chosen in a
+//! fixed order, so the map is identical whatever the number of threads.
+
+pub mod collision;
+pub mod figures;
+pub mod files;
+pub mod metrics;
+
+use std::f64::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::boundary::convert_tendon_unknowns;
+use crate::design::Tdpcr;
+use crate::error::{Error, Violations};
+use crate::kinetostatics::{RobotState, Solver};
+use crate::model::{Model, Pose};
+use crate::newton::{NewtonReport, NewtonSettings};
+use crate::rod::Wrench;
+use crate::rod::tendon::{TendonUnknown, tension};
+
+use collision::CollisionChecker;
+pub use metrics::{AnalysisSettings, PointMetrics, Rconds, Singularity, point_metrics};
+
+/// Default grid step Δ \[m\] (paper: 3 mm).
+pub const DEFAULT_STEP: f64 = 0.003;
+/// Default angular step φ between rays \[rad\] (paper: 0.035).
+pub const DEFAULT_ANGLE_STEP: f64 = 0.035;
+/// Default z-range \[m\]: covers the reachable workspace of the reference design at
+/// R_ee = I with a margin (see README).
+pub const DEFAULT_Z_RANGE: [f64; 2] = [-0.12, 0.12];
+
+/// What a colliding point does to its ray (and to the path to the planes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CollisionPolicy {
+    /// A collision is invalid: the point is recorded as a collision cell and its ray ends
+    /// (MODEL.md §6).
+    #[default]
+    Stop,
+    /// Colliding points are recorded and the ray goes on; only non-convergence or the
+    /// actuation limits end it (shows the whole colliding region, as the paper's Fig. 7).
+    Continue,
+}
+
+/// How to sweep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WorkspaceSettings {
+    /// Platform orientation R_ee as a rotation vector (axis × angle) \[rad\], world frame.
+    pub rotvec: [f64; 3],
+    /// Grid step Δ along rays and between planes \[m\].
+    pub step: f64,
+    /// Angle φ between rays \[rad\].
+    pub angle_step: f64,
+    /// Lowest and highest plane z \[m\] (planes at multiples of Δ within the range).
+    pub z_range: [f64; 2],
+    /// What a collision does.
+    pub collisions: CollisionPolicy,
+    /// Singularity thresholds of the per-point measures.
+    pub analysis: AnalysisSettings,
+    /// Newton tolerance ε_b on ‖b‖₂ (SI) of every IK step.
+    pub tolerance: f64,
+    /// Newton iterations allowed per step. A warm step of Δ = 3 mm needs 2–4, but steps
+    /// across a leg-singularity line (a leg's tendon pair switching, paper Fig. 9) can need
+    /// 20–50, and a smaller budget ends rays there (measured on the plane z = 0 of the
+    /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60).
+    pub max_iterations: usize,
+}
+
+impl Default for WorkspaceSettings {
+    fn default() -> Self {
+        Self {
+            rotvec: [0.0; 3],
+            step: DEFAULT_STEP,
+            angle_step: DEFAULT_ANGLE_STEP,
+            z_range: DEFAULT_Z_RANGE,
+            collisions: CollisionPolicy::Stop,
+            analysis: AnalysisSettings::default(),
+            tolerance: 1e-10,
+            max_iterations: 60,
+        }
+    }
+}
+
+/// Most planes or rays per plane a sweep accepts (memory and time guard).
+const MAX_COUNT: f64 = 100_000.0;
+
+impl WorkspaceSettings {
+    /// Checks every value; all problems are listed.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming each bad field, its value and the rule.
+    pub fn validate(&self) -> Result<(), Error> {
+        let mut v = Violations::default();
+        if !self.rotvec.iter().all(|x| x.is_finite()) {
+            v.push(
+                "rotvec",
+                format!("{:?}", self.rotvec),
+                "finite numbers [rad]",
+            );
+        }
+        if !(self.step.is_finite() && (1e-5..=1.0).contains(&self.step)) {
+            v.push("step", self.step, "in [1e-5, 1] m");
+        }
+        if !(self.angle_step.is_finite() && self.angle_step >= 1e-4 && self.angle_step <= PI) {
+            v.push("angle_step", self.angle_step, "in [1e-4, pi] rad");
+        }
+        let [lo, hi] = self.z_range;
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            v.push(
+                "z_range",
+                format!("{lo},{hi}"),
+                "two finite numbers ZMIN <= ZMAX [m]",
+            );
+        } else if self.step > 0.0 && (hi - lo) / self.step > MAX_COUNT {
+            v.push(
+                "z_range",
+                format!("{lo},{hi}"),
+                &format!("at most {MAX_COUNT} planes of step {} m", self.step),
+            );
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            v.push("tolerance", self.tolerance, "> 0");
+        }
+        if self.max_iterations == 0 {
+            v.push("max_iterations", 0, ">= 1");
+        }
+        if v.0.is_empty() {
+            Ok(())
+        } else {
+            Err(Error::Input(v))
+        }
+    }
+
+    /// R_ee.
+    pub fn rotation(&self) -> Matrix3<f64> {
+        *Rotation3::new(Vector3::from(self.rotvec)).matrix()
+    }
+
+    /// Plane indices k (z = k Δ) in the z-range, lowest first.
+    pub fn plane_indices(&self) -> std::ops::RangeInclusive<i64> {
+        let tol = 1e-9;
+        let lo = (self.z_range[0] / self.step - tol).ceil() as i64;
+        let hi = (self.z_range[1] / self.step + tol).floor() as i64;
+        lo..=hi
+    }
+
+    /// Rays per plane ⌈2π/φ⌉ (the last gap is at most φ).
+    pub fn rays_per_plane(&self) -> usize {
+        (2.0 * PI / self.angle_step - 1e-9).ceil() as usize
+    }
+}
+
+/// One cell of the map, represented by one solved configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorkspacePoint {
+    /// Grid cell (i, j, k): centre (i Δ, j Δ, k Δ).
+    pub cell: [i64; 3],
+    /// Solved platform position \[m\] (in the cell, within Δ/2 of its centre in x and y).
+    pub position: [f64; 3],
+    /// The solved configuration (q, leg unknowns); a warm start for nearby poses.
+    pub state: RobotState,
+    /// Tendon tensions \[N\], legs concatenated (n_t per leg).
+    pub tensions: Vec<f64>,
+    /// The disks collide (not part of the reachable workspace).
+    pub collision: bool,
+    /// rcond, singularity flags and minimum tension.
+    pub metrics: PointMetrics,
+}
+
+impl WorkspacePoint {
+    /// Reachable: valid and collision-free.
+    pub fn reachable(&self) -> bool {
+        !self.collision
+    }
+}
+
+/// A count or volume per category of cell.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Categories<T> {
+    /// Reachable (valid, collision-free) cells.
+    pub reachable: T,
+    /// Reachable cells not near any singularity (Type I, Type II or leg).
+    pub non_singular: T,
+    /// Reachable cells near a Type I singularity.
+    pub near_type_i: T,
+    /// Reachable cells near a Type II singularity.
+    pub near_type_ii: T,
+    /// Reachable cells near a leg singularity.
+    pub near_leg_singularity: T,
+    /// Cells with only colliding solutions.
+    pub collision: T,
+}
+
+/// Mean, minimum and maximum of one measure over the reachable cells (0 when empty).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Stats {
+    /// Mean.
+    pub mean: f64,
+    /// Minimum.
+    pub min: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Stats {
+    fn of(values: impl Iterator<Item = f64>) -> Self {
+        let (mut n, mut sum, mut min, mut max) = (0usize, 0.0, f64::INFINITY, f64::NEG_INFINITY);
+        for x in values {
+            n += 1;
+            sum += x;
+            min = min.min(x);
+            max = max.max(x);
+        }
+        if n == 0 {
+            Self::default()
+        } else {
+            Self {
+                mean: sum / n as f64,
+                min,
+                max,
+            }
+        }
+    }
+}
+
+/// [`Stats`] of each rcond.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct RcondStats {
+    /// rcond(\[B_x B_u\]).
+    pub b_xu: Stats,
+    /// rcond(\[B_q B_u\]).
+    pub b_qu: Stats,
+    /// rcond(B_u).
+    pub b_u: Stats,
+    /// rcond(J_p) (paper Tab. III).
+    pub j_p: Stats,
+    /// rcond(J_o) (paper Tab. III).
+    pub j_o: Stats,
+    /// rcond(C_p) (paper Tab. III).
+    pub c_p: Stats,
+    /// rcond(C_o) (paper Tab. III).
+    pub c_o: Stats,
+}
+
+impl RcondStats {
+    fn of<'a>(r: impl Iterator<Item = &'a Rconds> + Clone) -> Self {
+        Self {
+            b_xu: Stats::of(r.clone().map(|r| r.b_xu)),
+            b_qu: Stats::of(r.clone().map(|r| r.b_qu)),
+            b_u: Stats::of(r.clone().map(|r| r.b_u)),
+            j_p: Stats::of(r.clone().map(|r| r.j_p)),
+            j_o: Stats::of(r.clone().map(|r| r.j_o)),
+            c_p: Stats::of(r.clone().map(|r| r.c_p)),
+            c_o: Stats::of(r.map(|r| r.c_o)),
+        }
+    }
+}
+
+/// Fractions of the reachable cells near each kind of singularity (0 when empty).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct Fractions {
+    /// Near Type I.
+    pub near_type_i: f64,
+    /// Near Type II.
+    pub near_type_ii: f64,
+    /// Near a leg singularity.
+    pub near_leg_singularity: f64,
+}
+
+/// Why rays ended (counts over all rays).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
+pub struct RayEnds {
+    /// Newton did not converge.
+    pub not_converged: usize,
+    /// Some q left its actuation limits.
+    pub actuation_limits: usize,
+    /// A collision ([`CollisionPolicy::Stop`]).
+    pub collision: usize,
+    /// The ray reached the geometric bound of the design (should not happen).
+    pub max_radius: usize,
+}
+
+/// Why the path along z from the home configuration stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathEnd {
+    /// It reached the end of the z-range (or the range does not extend this way).
+    EndOfRange,
+    /// A step did not converge.
+    NotConverged,
+    /// A step left the actuation limits.
+    ActuationLimits,
+    /// A step collided ([`CollisionPolicy::Stop`]).
+    Collision,
+    /// The home configuration itself is invalid (out of limits or colliding).
+    InvalidHome,
+}
+
+impl From<End> for PathEnd {
+    fn from(e: End) -> Self {
+        match e {
+            End::NotConverged | End::MaxRadius => Self::NotConverged,
+            End::Limits => Self::ActuationLimits,
+            End::Collision => Self::Collision,
+        }
+    }
+}
+
+/// The sweep's numbers: sizes, Table-III statistics, singularity fractions, work.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WorkspaceSummary {
+    /// Grid step Δ \[m\].
+    pub step: f64,
+    /// Angle between rays φ \[rad\].
+    pub angle_step: f64,
+    /// R_ee as a rotation vector \[rad\].
+    pub rotvec: [f64; 3],
+    /// Requested z-range \[m\].
+    pub z_range: [f64; 2],
+    /// Planes in the z-range.
+    pub planes: usize,
+    /// Planes whose origin the path reached.
+    pub planes_reached: usize,
+    /// Lowest and highest z of a reached plane \[m\] (0, 0 when none).
+    pub z_reached: [f64; 2],
+    /// Why the path down and the path up along z stopped.
+    pub path_ends: [PathEnd; 2],
+    /// Rays per plane.
+    pub rays_per_plane: usize,
+    /// Cells per category.
+    pub counts: Categories<usize>,
+    /// Volume per category, count × Δ³ \[m³\].
+    pub volume: Categories<f64>,
+    /// rcond statistics of the raw SI matrices over the reachable cells.
+    pub rcond: RcondStats,
+    /// rcond statistics of the unit-scaled matrices over the reachable cells.
+    pub rcond_scaled: RcondStats,
+    /// Minimum tendon tension over the reachable cells \[N\].
+    pub min_tension: Stats,
+    /// Fractions of reachable cells near singularities.
+    pub fractions: Fractions,
+    /// Why rays ended.
+    pub ray_ends: RayEnds,
+    /// IK solves (Newton runs, including failed ones and retries).
+    pub solves: usize,
+    /// Newton iterations of the converged solves.
+    pub newton_iterations: usize,
+    /// Of the converged solves: residual evaluations (each a primal integration of the
+    /// three legs) and, among them, Jacobian evaluations (with sensitivities).
+    pub residual_evaluations: usize,
+    /// See `residual_evaluations`.
+    pub jacobian_evaluations: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// Wall time of the sweep (solves and measures, not file output) \[s\].
+    pub wall_time_s: f64,
+    /// solves / wall time \[1/s\].
+    pub solves_per_second: f64,
+}
+
+/// The result of a sweep: every cell (reachable or collision) and the summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorkspaceMap {
+    /// The settings used.
+    pub settings: WorkspaceSettings,
+    /// Actuators n_q (6 or 9).
+    pub n_actuators: usize,
+    /// Tendons per leg n_t.
+    pub tendons_per_leg: usize,
+    /// Cells, sorted by (k, j, i) (z, then y, then x).
+    pub points: Vec<WorkspacePoint>,
+    /// Counts, volumes and statistics.
+    pub summary: WorkspaceSummary,
+}
+
+impl WorkspaceMap {
+    /// The cells of plane k (z = k Δ), in (j, i) order.
+    pub fn plane(&self, k: i64) -> impl Iterator<Item = &WorkspacePoint> {
+        let start = self.points.partition_point(|p| p.cell[2] < k);
+        self.points[start..]
+            .iter()
+            .take_while(move |p| p.cell[2] == k)
+    }
+}
+
+/// Progress of a sweep: rays done out of the total (known once the planes are reached).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Progress {
+    /// Rays finished.
+    pub rays_done: usize,
+    /// Rays in all reached planes.
+    pub rays_total: usize,
+}
+
+/// Sweeps the workspace of `design` (see the module documentation).
+///
+/// # Errors
+/// [`Error::Input`] for bad settings; [`Error::Solve`] if the home configuration (the
+/// platform at the origin with R_ee) cannot be solved.
+///
+/// # Example
+/// ```no_run
+/// use tdpcr::Tdpcr;
+/// use tdpcr::workspace::{WorkspaceSettings, sweep_workspace};
+/// let design = Tdpcr::from_ron_file("designs/lilge2022.ron")?;
+/// let settings = WorkspaceSettings { step: 0.01, angle_step: 0.2, ..Default::default() };
+/// let map = sweep_workspace(&design, &settings)?;
+/// println!("{} m³", map.summary.volume.reachable);
+/// # Ok::<(), tdpcr::error::Error>(())
+/// ```
+pub fn sweep_workspace(
+    design: &Tdpcr,
+    settings: &WorkspaceSettings,
+) -> Result<WorkspaceMap, Error> {
+    sweep_workspace_with_progress(design, settings, &|_| {})
+}
+
+/// As [`sweep_workspace`], calling `progress` after every ray (from worker threads).
+///
+/// # Errors
+/// As [`sweep_workspace`].
+pub fn sweep_workspace_with_progress(
+    design: &Tdpcr,
+    settings: &WorkspaceSettings,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<WorkspaceMap, Error> {
+    settings.validate()?;
+    let start = Instant::now();
+    let worker = Worker::new(design, settings);
+    let model = worker.solver.model().clone();
+    let work = Work::default();
+    let planes = reach_planes(&worker, &model, settings, &work)?;
+    let n_rays = settings.rays_per_plane();
+    let rays_total = planes.origins.len() * n_rays;
+    let rays_done = AtomicUsize::new(0);
+    progress(Progress {
+        rays_done: 0,
+        rays_total,
+    });
+    let mut points = Vec::new();
+    let mut ray_ends = RayEnds::default();
+    for (k, origin) in &planes.origins {
+        let rays: Vec<Ray> = (0..n_rays)
+            .into_par_iter()
+            .map_init(
+                || worker.clone(),
+                |w, j| {
+                    let ray = w.follow_ray(&model, settings, origin, j, &work);
+                    let done = rays_done.fetch_add(1, Ordering::Relaxed) + 1;
+                    progress(Progress {
+                        rays_done: done,
+                        rays_total,
+                    });
+                    ray
+                },
+            )
+            .collect();
+        for r in &rays {
+            match r.end {
+                End::NotConverged => ray_ends.not_converged += 1,
+                End::Limits => ray_ends.actuation_limits += 1,
+                End::Collision => ray_ends.collision += 1,
+                End::MaxRadius => ray_ends.max_radius += 1,
+            }
+        }
+        let reps = representatives(settings.step, origin, &rays);
+        let measured: Vec<Result<WorkspacePoint, Error>> = reps
+            .par_iter()
+            .map_init(
+                || worker.clone(),
+                |w, rep| {
+                    let metrics =
+                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
+                    Ok(WorkspacePoint {
+                        cell: [rep.cell.1, rep.cell.0, *k],
+                        position: rep.sample.state.position,
+                        tensions: tensions(&model, &rep.sample.state),
+                        state: rep.sample.state.clone(),
+                        collision: rep.sample.collision,
+                        metrics,
+                    })
+                },
+            )
+            .collect();
+        for m in measured {
+            points.push(m?);
+        }
+    }
+    let wall = start.elapsed().as_secs_f64();
+    let summary = summarize(settings, &planes, n_rays, &points, ray_ends, &work, wall);
+    Ok(WorkspaceMap {
+        settings: settings.clone(),
+        n_actuators: model.n_actuators(),
+        tendons_per_leg: model.n_tendons(),
+        points,
+        summary,
+    })
+}
+
+/// Tendon tensions \[N\] of a state, legs concatenated.
+fn tensions(model: &Model, state: &RobotState) -> Vec<f64> {
+    let nu = model.n_leg_unknowns();
+    (0..3)
+        .flat_map(|i| (0..model.n_tendons()).map(move |k| i * nu + k))
+        .map(|i| tension(state.y_u[i]))
+        .collect()
+}
+
+/// Counters shared by the workers (summed; their totals do not depend on the schedule).
+#[derive(Debug, Default)]
+struct Work {
+    solves: AtomicUsize,
+    iterations: AtomicUsize,
+    jacobians: AtomicUsize,
+    residuals: AtomicUsize,
+}
+
+impl Work {
+    /// Counts a converged solve's work.
+    fn add(&self, r: &NewtonReport) {
+        self.iterations.fetch_add(r.iterations, Ordering::Relaxed);
+        self.jacobians
+            .fetch_add(r.jacobian_evaluations, Ordering::Relaxed);
+        self.residuals
+            .fetch_add(r.residual_evaluations, Ordering::Relaxed);
+    }
+}
+
+/// One solved point of a ray (or a plane origin).
+#[derive(Debug, Clone)]
+struct Sample {
+    state: RobotState,
+    collision: bool,
+}
+
+/// Why a ray or path ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum End {
+    NotConverged,
+    Limits,
+    Collision,
+    MaxRadius,
+}
+
+/// A ray's solved points in order (steps 1, 2, ...) and why it ended.
+#[derive(Debug, Clone)]
+struct Ray {
+    samples: Vec<Sample>,
+    end: End,
+}
+
+/// A solver and collision buffers; cloned once per rayon job split.
+#[derive(Debug, Clone)]
+struct Worker {
+    solver: Solver,
+    collisions: CollisionChecker,
+}
+
+impl Worker {
+    fn new(design: &Tdpcr, settings: &WorkspaceSettings) -> Self {
+        let mut solver = Solver::new(design);
+        solver.settings.tolerance = settings.tolerance;
+        solver.settings.max_iterations = settings.max_iterations;
+        let collisions = CollisionChecker::new(solver.model());
+        Self { solver, collisions }
+    }
+
+    /// Validity of a solved state: actuation limits, then collisions.
+    fn classify(&mut self, model: &Model, state: RobotState) -> Result<Sample, End> {
+        if !within_limits(model, &state.q) {
+            return Err(End::Limits);
+        }
+        let collision = self
+            .collisions
+            .check(model, &state)
+            .map_err(|_| End::NotConverged)?
+            .is_some();
+        Ok(Sample { state, collision })
+    }
+
+    /// One path step to `position`: IK from a prediction extrapolated from the last
+    /// solutions on the path (`history`, oldest first, at equal steps), retried from the
+    /// last solution alone if the prediction fails.
+    fn step(
+        &mut self,
+        model: &Model,
+        rotation: &Matrix3<f64>,
+        position: Vector3<f64>,
+        history: &[&RobotState],
+        work: &Work,
+    ) -> Result<Sample, End> {
+        let pose = Pose {
+            position,
+            rotation: *rotation,
+        };
+        let zero = Wrench::default();
+        let last = history[history.len() - 1];
+        let predicted = predict(model, history);
+        let result = self
+            .solver
+            .solve_ik_newton(&pose, &zero, predicted.as_ref().unwrap_or(last));
+        work.solves.fetch_add(1, Ordering::Relaxed);
+        let sol = result.map_err(|_| End::NotConverged)?;
+        work.add(&sol.report);
+        self.classify(model, sol.state)
+    }
+
+    /// Ray j from the plane origin `origin`.
+    fn follow_ray(
+        &mut self,
+        model: &Model,
+        settings: &WorkspaceSettings,
+        origin: &Sample,
+        j: usize,
+        work: &Work,
+    ) -> Ray {
+        let theta = j as f64 * settings.angle_step;
+        let (c, s) = (theta.cos(), theta.sin());
+        let z = origin.state.position[2];
+        let rotation = settings.rotation();
+        let max_steps = (max_radius(model) / settings.step).ceil() as usize;
+        let mut samples: Vec<Sample> = Vec::new();
+        for i in 1..=max_steps {
+            let r = i as f64 * settings.step;
+            let position = Vector3::new(r * c, r * s, z);
+            let n = samples.len();
+            let history: Vec<&RobotState> = std::iter::once(&origin.state)
+                .chain(samples.iter().map(|s| &s.state))
+                .skip((n + 1).saturating_sub(PREDICTOR_POINTS))
+                .collect();
+            match self.step(model, &rotation, position, &history, work) {
+                Ok(sample) => {
+                    let stop = sample.collision && settings.collisions == CollisionPolicy::Stop;
+                    samples.push(sample);
+                    if stop {
+                        return Ray {
+                            samples,
+                            end: End::Collision,
+                        };
+                    }
+                }
+                Err(end) => return Ray { samples, end },
+            }
+        }
+        Ray {
+            samples,
+            end: End::MaxRadius,
+        }
+    }
+}
+
+/// Solutions used by the predictor of a path step: the last three give a quadratic
+/// extrapolation.
+const PREDICTOR_POINTS: usize = 3;
+
+/// The start of the next path step extrapolated from the last solutions at equal steps
+/// (oldest first): quadratic from three, linear from two, none from one. Tendon unknowns
+/// are extrapolated in ζ = γ|γ| (tension when positive, slack when negative: linear in
+/// the pose away from the taut/slack switch, where γ = ±√ζ is not), and a tendon whose
+/// prediction would switch between taut and slack is predicted at the switch (ζ = 0):
+/// the two sides have different units (N, m), so extrapolating across is meaningless.
+fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
+    let extrapolate = |xs: &[&[f64]]| -> Vec<f64> {
+        let last = xs[xs.len() - 1];
+        (0..last.len())
+            .map(|i| match xs {
+                [a, b, c] => 3.0 * c[i] - 3.0 * b[i] + a[i],
+                [a, b] => 2.0 * b[i] - a[i],
+                _ => last[i],
+            })
+            .collect()
+    };
+    if history.len() < 2 {
+        return None;
+    }
+    let zeta: Vec<Vec<f64>> = history
+        .iter()
+        .map(|s| {
+            let mut y = s.y_u.clone();
+            convert_tendon_unknowns(model, &mut y, TendonUnknown::Gamma, TendonUnknown::Linear);
+            y
+        })
+        .collect();
+    let last = history[history.len() - 1];
+    let last_zeta = &zeta[zeta.len() - 1];
+    let mut y_u = extrapolate(&zeta.iter().map(Vec::as_slice).collect::<Vec<_>>());
+    let nu = model.n_leg_unknowns();
+    for leg in 0..3 {
+        for k in 0..model.n_tendons() {
+            let i = leg * nu + k;
+            if y_u[i] * last_zeta[i] < 0.0 {
+                y_u[i] = 0.0;
+            }
+        }
+    }
+    convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
+    Some(RobotState {
+        position: last.position,
+        rotvec: last.rotvec,
+        q: extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>()),
+        y_u,
+    })
+}
+
+/// Every |q_b| and |q_t| within its limit (MODEL.md §1 actuation limits).
+fn within_limits(model: &Model, q: &[f64]) -> bool {
+    let per_leg = model.pairs + 1;
+    q.iter().enumerate().all(|(i, x)| {
+        let limit = if i % per_leg == model.pairs {
+            model.limits.base_translation
+        } else {
+            model.limits.tendon_displacement
+        };
+        x.abs() <= limit
+    })
+}
+
+/// A bound on how far the platform centre can be from the origin: the farthest base
+/// (at its largest translation) plus the leg, the coupling link and the platform radius.
+fn max_radius(model: &Model) -> f64 {
+    let base = model
+        .bases
+        .iter()
+        .map(|b| b.position.norm())
+        .fold(0.0, f64::max);
+    let platform = model
+        .coupling_points
+        .iter()
+        .map(|c| c.norm())
+        .fold(0.0, f64::max);
+    base + model.limits.base_translation + model.leg.length + model.coupling_offset + platform
+}
+
+/// The plane origins reached by the path along z, and why the path stopped.
+struct Planes {
+    /// (k, origin) for every reached plane z = k Δ in the z-range, lowest first.
+    origins: Vec<(i64, Sample)>,
+    /// Why the path down and the path up stopped.
+    ends: [PathEnd; 2],
+}
+
+/// Solves the home configuration, then follows z up and down to the plane origins in the
+/// z-range.
+fn reach_planes(
+    worker: &Worker,
+    model: &Model,
+    settings: &WorkspaceSettings,
+    work: &Work,
+) -> Result<Planes, Error> {
+    let rotation = settings.rotation();
+    let mut home_worker = worker.clone();
+    // The cold home solve may need continuation: the solver's default iteration limit.
+    home_worker.solver.settings.max_iterations = NewtonSettings::default().max_iterations;
+    let home_pose = Pose {
+        position: Vector3::zeros(),
+        rotation,
+    };
+    let home = home_worker
+        .solver
+        .solve_ik(&home_pose, &Wrench::default(), None)?;
+    work.solves.fetch_add(1, Ordering::Relaxed);
+    work.add(&home.report);
+    let home = match home_worker.classify(model, home.state) {
+        Ok(s) if !(s.collision && settings.collisions == CollisionPolicy::Stop) => s,
+        _ => {
+            return Ok(Planes {
+                origins: Vec::new(),
+                ends: [PathEnd::InvalidHome; 2],
+            });
+        }
+    };
+    let range = settings.plane_indices();
+    let (lo, hi) = (*range.start(), *range.end());
+    // One chain of path steps in direction `dir` (+1 up, −1 down) from home to `last_k`.
+    let chain = |dir: i64, last_k: i64| -> (Vec<(i64, Sample)>, PathEnd) {
+        let mut w = worker.clone();
+        let mut out = Vec::new();
+        let mut path: Vec<RobotState> = vec![home.state.clone()];
+        let mut k = 0;
+        while k != last_k {
+            k += dir;
+            let position = Vector3::new(0.0, 0.0, k as f64 * settings.step);
+            let from = path.len().saturating_sub(PREDICTOR_POINTS);
+            let history: Vec<&RobotState> = path[from..].iter().collect();
+            match w.step(model, &rotation, position, &history, work) {
+                Ok(s) if !(s.collision && settings.collisions == CollisionPolicy::Stop) => {
+                    path.push(s.state.clone());
+                    if range.contains(&k) {
+                        out.push((k, s));
+                    }
+                }
+                Ok(_) => return (out, PathEnd::Collision),
+                Err(end) => return (out, end.into()),
+            }
+        }
+        (out, PathEnd::EndOfRange)
+    };
+    let none = || (Vec::new(), PathEnd::EndOfRange);
+    let ((down, down_end), (up, up_end)) = rayon::join(
+        || if lo < 0 { chain(-1, lo) } else { none() },
+        || if hi > 0 { chain(1, hi) } else { none() },
+    );
+    let mut planes: Vec<(i64, Sample)> = down.into_iter().rev().collect();
+    if range.contains(&0) {
+        planes.push((0, home));
+    }
+    planes.extend(up);
+    Ok(Planes {
+        origins: planes,
+        ends: [down_end, up_end],
+    })
+}
+
+/// The chosen sample of a cell.
+struct Representative<'a> {
+    /// (j, i): y index, then x index.
+    cell: (i64, i64),
+    sample: &'a Sample,
+}
+
+/// A sample competing to represent a cell.
+struct Candidate<'a> {
+    collision: bool,
+    /// Squared distance to the cell centre in units of Δ².
+    distance2: f64,
+    sample: &'a Sample,
+}
+
+impl Candidate<'_> {
+    /// Valid before colliding, then nearer the centre; on a tie the earlier sample (in
+    /// (ray, step) order) stays.
+    fn better_than(&self, other: &Self) -> bool {
+        (other.collision && !self.collision)
+            || (self.collision == other.collision && self.distance2 < other.distance2)
+    }
+}
+
+/// One representative per cell of a plane (see the module documentation), in (j, i) order.
+fn representatives<'a>(step: f64, origin: &'a Sample, rays: &'a [Ray]) -> Vec<Representative<'a>> {
+    use std::collections::BTreeMap;
+    let mut best: BTreeMap<(i64, i64), Candidate> = BTreeMap::new();
+    let all = std::iter::once(origin).chain(rays.iter().flat_map(|r| r.samples.iter()));
+    for sample in all {
+        let (x, y) = (
+            sample.state.position[0] / step,
+            sample.state.position[1] / step,
+        );
+        let (i, j) = (x.round(), y.round());
+        let candidate = Candidate {
+            collision: sample.collision,
+            distance2: (x - i).powi(2) + (y - j).powi(2),
+            sample,
+        };
+        let cell = (j as i64, i as i64);
+        if best.get(&cell).is_none_or(|b| candidate.better_than(b)) {
+            best.insert(cell, candidate);
+        }
+    }
+    best.into_iter()
+        .map(|(cell, c)| Representative {
+            cell,
+            sample: c.sample,
+        })
+        .collect()
+}
+
+fn summarize(
+    settings: &WorkspaceSettings,
+    planes: &Planes,
+    n_rays: usize,
+    points: &[WorkspacePoint],
+    ray_ends: RayEnds,
+    work: &Work,
+    wall: f64,
+) -> WorkspaceSummary {
+    let reachable: Vec<&WorkspacePoint> = points.iter().filter(|p| p.reachable()).collect();
+    let count = |f: &dyn Fn(&Singularity) -> bool| {
+        reachable
+            .iter()
+            .filter(|p| f(&p.metrics.singularity))
+            .count()
+    };
+    let counts = Categories {
+        reachable: reachable.len(),
+        non_singular: count(&|s| !(s.type_i || s.type_ii || s.leg)),
+        near_type_i: count(&|s| s.type_i),
+        near_type_ii: count(&|s| s.type_ii),
+        near_leg_singularity: count(&|s| s.leg),
+        collision: points.len() - reachable.len(),
+    };
+    let cell = settings.step.powi(3);
+    let volume = Categories {
+        reachable: counts.reachable as f64 * cell,
+        non_singular: counts.non_singular as f64 * cell,
+        near_type_i: counts.near_type_i as f64 * cell,
+        near_type_ii: counts.near_type_ii as f64 * cell,
+        near_leg_singularity: counts.near_leg_singularity as f64 * cell,
+        collision: counts.collision as f64 * cell,
+    };
+    let fraction = |n: usize| {
+        if reachable.is_empty() {
+            0.0
+        } else {
+            n as f64 / reachable.len() as f64
+        }
+    };
+    let solves = work.solves.load(Ordering::Relaxed);
+    let z = |k: i64| k as f64 * settings.step;
+    WorkspaceSummary {
+        step: settings.step,
+        angle_step: settings.angle_step,
+        rotvec: settings.rotvec,
+        z_range: settings.z_range,
+        planes: settings.plane_indices().count(),
+        planes_reached: planes.origins.len(),
+        z_reached: match (planes.origins.first(), planes.origins.last()) {
+            (Some(a), Some(b)) => [z(a.0), z(b.0)],
+            _ => [0.0, 0.0],
+        },
+        path_ends: planes.ends,
+        rays_per_plane: n_rays,
+        counts,
+        volume,
+        rcond: RcondStats::of(reachable.iter().map(|p| &p.metrics.rcond)),
+        rcond_scaled: RcondStats::of(reachable.iter().map(|p| &p.metrics.rcond_scaled)),
+        min_tension: Stats::of(reachable.iter().map(|p| p.metrics.min_tension)),
+        fractions: Fractions {
+            near_type_i: fraction(counts.near_type_i),
+            near_type_ii: fraction(counts.near_type_ii),
+            near_leg_singularity: fraction(counts.near_leg_singularity),
+        },
+        ray_ends,
+        solves,
+        newton_iterations: work.iterations.load(Ordering::Relaxed),
+        residual_evaluations: work.residuals.load(Ordering::Relaxed),
+        jacobian_evaluations: work.jacobians.load(Ordering::Relaxed),
+        threads: rayon::current_num_threads(),
+        wall_time_s: wall,
+        solves_per_second: if wall > 0.0 {
+            solves as f64 / wall
+        } else {
+            0.0
+        },
+    }
+}
