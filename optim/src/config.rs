@@ -18,7 +18,8 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use tdpcr::error::{DesignError, Violations};
+use tdpcr::error::{DesignError, Error, Violation, Violations};
+use tdpcr::workspace::{CollisionPolicy, WorkspaceSettings};
 
 use crate::objectives::Objective;
 use crate::space::{Bounds, ParameterSpace};
@@ -40,6 +41,9 @@ pub struct OptimConfig {
     pub evaluation: EvaluationConfig,
     /// The weighted composite objective that drives CMA-ES.
     pub objectives: Vec<Weighted>,
+    /// Optional: how the weighted terms combine (default [`Aggregation::Sum`]).
+    #[serde(default)]
+    pub aggregation: Aggregation,
     /// When to stop.
     pub budget: Budget,
     /// Seed of the optimizer's random numbers.
@@ -95,6 +99,20 @@ fn default_tolerance() -> f64 {
     1e-10
 }
 
+/// How the terms of the composite combine; r_k = v_k / v_k(reference) (see
+/// [`crate::objectives`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Aggregation {
+    /// Weighted mean Σ w_k r_k / Σ w_k: trades one objective against another.
+    #[default]
+    Sum,
+    /// Weighted minimum min_k r_k^(w_k / max w) over the terms with w_k > 0: the worst
+    /// ratio to the reference counts (with equal weights, c > 1 means better than the
+    /// reference on every term), so the search is driven towards designs that dominate
+    /// the reference.
+    Min,
+}
+
 /// One term of the composite objective.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -136,11 +154,22 @@ impl OptimConfig {
     /// [`DesignError::Invalid`] listing every broken rule.
     pub fn from_ron_file(path: impl AsRef<Path>) -> Result<Self, DesignError> {
         let path = path.as_ref();
+        let config = Self::parse_ron_file(path)?;
+        config.validate(&path.display().to_string())?;
+        Ok(config)
+    }
+
+    /// Reads and parses a config file without checking the values (for callers that
+    /// change some before [`OptimConfig::validate`]).
+    ///
+    /// # Errors
+    /// [`DesignError::Io`], [`DesignError::Parse`].
+    pub fn parse_ron_file(path: &Path) -> Result<Self, DesignError> {
         let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::from_ron_str(&text, path)
+        Self::parse_ron_str(&text, path)
     }
 
     /// Parses and validates RON text (`path` names it in errors).
@@ -148,14 +177,18 @@ impl OptimConfig {
     /// # Errors
     /// As [`OptimConfig::from_ron_file`].
     pub fn from_ron_str(text: &str, path: &Path) -> Result<Self, DesignError> {
-        let config: Self = ron::de::from_str(text).map_err(|e| DesignError::Parse {
+        let config = Self::parse_ron_str(text, path)?;
+        config.validate(&path.display().to_string())?;
+        Ok(config)
+    }
+
+    fn parse_ron_str(text: &str, path: &Path) -> Result<Self, DesignError> {
+        ron::de::from_str(text).map_err(|e| DesignError::Parse {
             path: path.to_path_buf(),
             line: e.span.start.line,
             column: e.span.start.col,
             message: e.code.to_string(),
-        })?;
-        config.validate(&path.display().to_string())?;
-        Ok(config)
+        })
     }
 
     /// The config as RON text (loads back with [`OptimConfig::from_ron_str`]).
@@ -238,7 +271,14 @@ impl OptimConfig {
             );
         }
         if let Some(f) = &self.figures {
-            check_resolution(v, "figures", f.step, f.angle_step);
+            let mut settings = self.evaluation.sweep_settings((0.0, 0.0, 0.0));
+            settings.step = f.step;
+            settings.angle_step = f.angle_step;
+            push_sweep_violations(v, &settings, |field| {
+                ["step", "angle_step"]
+                    .contains(&field)
+                    .then(|| format!("figures.{field}"))
+            });
         }
     }
 
@@ -257,40 +297,25 @@ impl OptimConfig {
     }
 }
 
-/// Most planes or rays per plane an evaluation may ask for (an evaluation is meant to take
-/// seconds).
-const MAX_COUNT: f64 = 10_000.0;
-
-fn check_resolution(v: &mut Violations, prefix: &str, step: f64, angle_step: f64) {
-    if !(step.is_finite() && (1e-4..=0.1).contains(&step)) {
-        v.push(format!("{prefix}.step"), step, "in [1e-4, 0.1] m");
-    }
-    if !(1e-3..=std::f64::consts::PI).contains(&angle_step) {
-        v.push(
-            format!("{prefix}.angle_step"),
-            angle_step,
-            "in [1e-3, pi] rad",
-        );
-    }
-}
-
 impl EvaluationConfig {
-    fn check(&self, v: &mut Violations) {
-        check_resolution(v, "evaluation", self.step, self.angle_step);
-        let (lo, hi) = self.z_range;
-        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-            v.push(
-                "evaluation.z_range",
-                format!("({lo}, {hi})"),
-                "two finite numbers (ZMIN, ZMAX), ZMIN <= ZMAX [m]",
-            );
-        } else if self.step > 0.0 && (hi - lo) / self.step > MAX_COUNT {
-            v.push(
-                "evaluation.z_range",
-                format!("({lo}, {hi})"),
-                &format!("at most {MAX_COUNT} planes of step {} m", self.step),
-            );
+    /// The library's sweep settings for the orientation `rotvec` \[rad\] (collisions end
+    /// rays, default singularity thresholds).
+    pub fn sweep_settings(&self, rotvec: (f64, f64, f64)) -> WorkspaceSettings {
+        WorkspaceSettings {
+            rotvec: [rotvec.0, rotvec.1, rotvec.2],
+            step: self.step,
+            angle_step: self.angle_step,
+            z_range: [self.z_range.0, self.z_range.1],
+            collisions: CollisionPolicy::Stop,
+            tolerance: self.tolerance,
+            max_iterations: self.max_iterations,
+            ..WorkspaceSettings::default()
         }
+    }
+
+    /// The rules of the library's sweep settings ([`WorkspaceSettings::validate`]), with
+    /// the fields renamed as in this file.
+    fn check(&self, v: &mut Violations) {
         if self.orientations.is_empty() {
             v.push(
                 "evaluation.orientations",
@@ -298,20 +323,33 @@ impl EvaluationConfig {
                 "at least one rotation vector",
             );
         }
-        for (i, r) in self.orientations.iter().enumerate() {
-            if ![r.0, r.1, r.2].iter().all(|x| x.is_finite()) {
-                v.push(
-                    format!("evaluation.orientations[{i}]"),
-                    format!("({}, {}, {})", r.0, r.1, r.2),
-                    "finite numbers [rad]",
-                );
+        let first = self.orientations.first().copied().unwrap_or_default();
+        push_sweep_violations(v, &self.sweep_settings(first), |field| {
+            Some(match field {
+                "rotvec" => "evaluation.orientations[0]".to_string(),
+                _ => format!("evaluation.{field}"),
+            })
+        });
+        for (i, &r) in self.orientations.iter().enumerate().skip(1) {
+            push_sweep_violations(v, &self.sweep_settings(r), |field| {
+                (field == "rotvec").then(|| format!("evaluation.orientations[{i}]"))
+            });
+        }
+    }
+}
+
+/// Appends the violations of `settings.validate()` whose field `rename` maps to a name
+/// of this file (the others are dropped).
+fn push_sweep_violations(
+    v: &mut Violations,
+    settings: &WorkspaceSettings,
+    rename: impl Fn(&str) -> Option<String>,
+) {
+    if let Err(Error::Input(list)) = settings.validate() {
+        for x in list.0 {
+            if let Some(field) = rename(&x.field) {
+                v.0.push(Violation { field, ..x });
             }
-        }
-        if self.max_iterations == 0 {
-            v.push("evaluation.max_iterations", 0, ">= 1");
-        }
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            v.push("evaluation.tolerance", self.tolerance, "> 0");
         }
     }
 }
@@ -350,10 +388,10 @@ mod tests {
             "invalid bad.ron (13 problems):
   - base_design = \"\": expected a design file path
   - parameters[0].min = -1: expected >= 0 N (pretension)
-  - evaluation.step = 0: expected in [1e-4, 0.1] m
-  - evaluation.angle_step = 4: expected in [1e-3, pi] rad
-  - evaluation.z_range = (0.1, -0.1): expected two finite numbers (ZMIN, ZMAX), ZMIN <= ZMAX [m]
   - evaluation.orientations = []: expected at least one rotation vector
+  - evaluation.step = 0: expected in [1e-5, 1] m
+  - evaluation.angle_step = 4: expected in [1e-4, pi] rad
+  - evaluation.z_range = 0.1,-0.1: expected two finite numbers ZMIN <= ZMAX [m]
   - evaluation.max_iterations = 0: expected >= 1
   - objectives[0].weight = -1: expected >= 0
   - objectives[1].objective = WorkspaceVolume: expected each objective at most once

@@ -71,8 +71,9 @@ pub fn pareto_figure(result: &SearchResult) -> String {
         .measures()
         .map(|m| scaled(m.pareto()));
     let pairs = [(0, 1), (0, 2), (1, 2)];
-    render((1260, 430), |root| {
-        let areas = root.split_evenly((1, 3));
+    render((1260, 450), |root| {
+        let (legend, body) = root.split_vertically(24);
+        let areas = body.split_evenly((1, 3));
         for ((a, b), area) in pairs.iter().zip(areas.iter()) {
             let all = || points.iter().map(|p| p.0).chain(reference);
             let mut chart = ChartBuilder::on(area)
@@ -108,7 +109,7 @@ pub fn pareto_figure(result: &SearchResult) -> String {
                 )))?;
             }
         }
-        root.draw(&Text::new(
+        legend.draw(&Text::new(
             "grey: feasible candidates, blue: Pareto front, green: best composite, red cross: reference",
             (14, 6),
             ("sans-serif", 14).into_font(),
@@ -153,6 +154,7 @@ pub fn progress_figure(result: &SearchResult) -> String {
             .configure_mesh()
             .disable_mesh()
             .x_desc("candidate (evaluation order)")
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .y_desc("composite")
             .draw()?;
         chart.draw_series(points.iter().map(|&p| Circle::new(p, 2, GREY.filled())))?;

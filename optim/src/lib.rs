@@ -11,6 +11,7 @@
 //! - [`objectives`]: what an evaluation measures, the Pareto objectives, the weighted
 //!   composite and the ranking of infeasible designs;
 //! - [`evaluate`]: the [`evaluate::Evaluator`] trait (the design problem);
+//! - [`workspace_eval`]: the evaluator on `tdpcr`'s workspace sweep;
 //! - [`cmaes`]: the optimizer (ask/tell CMA-ES on \[0, 1\]ⁿ), [`rng`] its random numbers;
 //! - [`pareto`]: dominance and non-dominated sorting;
 //! - [`search`]: the run loop (parallel evaluation, log, resume, termination);
@@ -34,6 +35,7 @@ pub mod rng;
 pub mod runlog;
 pub mod search;
 pub mod space;
+pub mod workspace_eval;
 
 pub use config::OptimConfig;
 pub use error::OptimError;

@@ -5,11 +5,14 @@
 //! valid, non-singular cells), [`Objective::MeanRcondJp`] (isotropy of the positional
 //! Jacobian) and [`Objective::SingularityMargin`] (see [`Measures::singularity_margin`]).
 //!
-//! **Composite.** c = Σ_k w_k v_k / s_k / Σ_k w_k over the configured terms, where v_k is
-//! the measure of the design and s_k the same measure of the reference (base) design, or
-//! 1 when the reference's value is not positive (e.g. a minimum tension of 0 N, or an
-//! infeasible reference). So c = 1 for the reference and c = 1.2 means "20 % better on
-//! the weighted average". All measures are ≥ 0, hence c ≥ 0. CMA-ES minimizes the
+//! **Composite.** With r_k = v_k / s_k for each configured term, where v_k is the measure
+//! of the design and s_k the same measure of the reference (base) design, or 1 when the
+//! reference's value is not positive (e.g. a minimum tension of 0 N, or an infeasible
+//! reference): c = Σ_k w_k r_k / Σ_k w_k ([`Aggregation::Sum`]), or
+//! c = min_k r_k^(w_k / max w) over the terms with w_k > 0 ([`Aggregation::Min`]). So
+//! c = 1 for the reference; c = 1.2 means "20 % better on the weighted average" (Sum) or
+//! "at least 20 % better on every term" (Min, equal weights). All measures are ≥ 0,
+//! hence c ≥ 0. CMA-ES minimizes the
 //! fitness −c; an infeasible design gets the fitness [`Infeasibility::severity`] (≥ 1),
 //! which ranks it below every feasible design, and ranks the reasons among themselves
 //! (a design that solves at home but collides there beats one whose geometry is
@@ -17,7 +20,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::Weighted;
+use crate::config::{Aggregation, Weighted};
 
 /// Mean and minimum of a measure over the reachable cells.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
@@ -323,12 +326,17 @@ impl Outcome {
 pub struct Composite {
     /// (objective, weight, scale s_k).
     terms: Vec<(Objective, f64, f64)>,
+    aggregation: Aggregation,
 }
 
 impl Composite {
     /// The composite of `weights`, each measure divided by the reference's value (or 1
     /// when that is not positive or the reference is infeasible).
-    pub fn new(weights: &[Weighted], reference: Option<&Measures>) -> Self {
+    pub fn new(
+        weights: &[Weighted],
+        aggregation: Aggregation,
+        reference: Option<&Measures>,
+    ) -> Self {
         let terms = weights
             .iter()
             .map(|w| {
@@ -337,7 +345,7 @@ impl Composite {
                 (w.objective, w.weight, scale)
             })
             .collect();
-        Self { terms }
+        Self { terms, aggregation }
     }
 
     /// (objective, weight, scale) of each term.
@@ -345,14 +353,27 @@ impl Composite {
         &self.terms
     }
 
-    /// c = Σ w v / s / Σ w (≥ 0; 1 for the reference).
+    /// How the terms combine.
+    pub fn aggregation(&self) -> Aggregation {
+        self.aggregation
+    }
+
+    /// c (≥ 0; 1 for the reference), see the module documentation.
     pub fn value(&self, m: &Measures) -> f64 {
-        let total: f64 = self.terms.iter().map(|t| t.1).sum();
-        self.terms
-            .iter()
-            .map(|&(o, w, s)| w * o.value(m) / s)
-            .sum::<f64>()
-            / total
+        let ratios = self.terms.iter().map(|&(o, w, s)| (w, o.value(m) / s));
+        match self.aggregation {
+            Aggregation::Sum => {
+                let total: f64 = self.terms.iter().map(|t| t.1).sum();
+                ratios.map(|(w, r)| w * r).sum::<f64>() / total
+            }
+            Aggregation::Min => {
+                let w_max = self.terms.iter().map(|t| t.1).fold(0.0, f64::max);
+                ratios
+                    .filter(|&(w, _)| w > 0.0)
+                    .map(|(w, r)| r.powf(w / w_max))
+                    .fold(f64::INFINITY, f64::min)
+            }
+        }
     }
 
     /// The composite of a feasible outcome.
@@ -406,7 +427,7 @@ mod tests {
             },
         ];
         let reference = measures(1e-4, 0.5, 0.9, 0.0);
-        let c = Composite::new(&weights, Some(&reference));
+        let c = Composite::new(&weights, Aggregation::Sum, Some(&reference));
         // Tension reference 0 N: scale 1, so the reference scores (2 + 1 + 0) / 4.
         assert!((c.value(&reference) - 0.75).abs() < 1e-12);
         let better = measures(2e-4, 0.5, 0.9, 0.5);

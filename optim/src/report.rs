@@ -34,6 +34,8 @@ pub struct SliceSet {
     pub dir: String,
     /// (file name, SVG text).
     pub files: Vec<(String, String)>,
+    /// The design's measures from the same (finer) sweep, if computed.
+    pub measures: Option<crate::objectives::Measures>,
 }
 
 /// What the report says about the circumstances of the run.
@@ -245,11 +247,11 @@ pub fn report_markdown(
             if dominating.len() > 12 { ", ..." } else { "" }
         );
     } else {
-        let _ = writeln!(w, "**No candidate Pareto-dominates the reference.**");
+        let _ = write!(w, "**No candidate Pareto-dominates the reference.**");
         if let Some((r, q)) = closest_to_dominating(result) {
             let _ = writeln!(
                 w,
-                " The closest, #{}, reaches {:.1} % of the reference's volume, {:.1} % of its mean rcond(J_p) and {:.1} % of its singularity margin.\n",
+                " The closest (largest smallest ratio to the reference), #{}, reaches {:.1} % of the reference's volume, {:.1} % of its mean rcond(J_p) and {:.1} % of its singularity margin.\n",
                 r.id,
                 100.0 * q[0],
                 100.0 * q[1],
@@ -419,7 +421,22 @@ pub fn report_markdown(
         if let Some(note) = &ctx.slices_note {
             let _ = writeln!(w, "{note}\n");
         }
-        let names: Vec<&String> = slices[0].files.iter().map(|(n, _)| n).collect();
+        let mut all: Vec<&String> = Vec::new();
+        for s in slices {
+            for (n, _) in &s.files {
+                if !all.contains(&n) {
+                    all.push(n);
+                }
+            }
+        }
+        // By the slice height in the name (`reach_z-0.060.svg`).
+        let height = |n: &str| {
+            n.trim_end_matches(".svg")
+                .rsplit_once("_z")
+                .and_then(|(_, z)| z.parse::<f64>().ok())
+                .unwrap_or(0.0)
+        };
+        all.sort_by(|a, b| height(a).total_cmp(&height(b)).then(a.cmp(b)));
         let _ = write!(w, "| figure");
         for s in slices {
             let _ = write!(w, " | {}", s.label);
@@ -429,14 +446,6 @@ pub fn report_markdown(
             let _ = write!(w, "|---");
         }
         let _ = writeln!(w, "|");
-        let mut all: Vec<&String> = names;
-        for s in &slices[1..] {
-            for (n, _) in &s.files {
-                if !all.contains(&n) {
-                    all.push(n);
-                }
-            }
-        }
         for n in all.into_iter().filter(|n| n.starts_with("reach_")) {
             let _ = write!(w, "| {n}");
             for s in slices {
@@ -452,6 +461,7 @@ pub fn report_markdown(
             w,
             "\nThe rcond and tension maps of each slice are beside these files (`rcond_z*.svg`, `tension_z*.svg`).\n"
         );
+        fine_table(w, slices);
     }
 
     // Evaluation.
@@ -468,6 +478,44 @@ pub fn report_markdown(
         e.orientations
     );
     md
+}
+
+/// The Pareto objectives of the slice sweeps (a finer resolution than the search's), and
+/// whether each design dominates the first (the reference) there.
+fn fine_table(w: &mut String, slices: &[SliceSet]) {
+    let with: Vec<(&SliceSet, &crate::objectives::Measures)> = slices
+        .iter()
+        .filter_map(|s| s.measures.as_ref().map(|m| (s, m)))
+        .collect();
+    if with.len() < 2 {
+        return;
+    }
+    let _ = write!(w, "The same objectives from these finer sweeps:\n\n| |");
+    for (s, _) in &with {
+        let _ = write!(w, " {} |", s.label);
+    }
+    let _ = write!(w, "\n|---|");
+    for _ in &with {
+        let _ = write!(w, "---:|");
+    }
+    let _ = writeln!(w);
+    for o in PARETO_OBJECTIVES
+        .into_iter()
+        .chain([Objective::ReachableVolume])
+    {
+        let _ = write!(w, "| {} |", o.label());
+        for (_, m) in &with {
+            let _ = write!(w, " {} |", show_measure(o, o.value(m)));
+        }
+        let _ = writeln!(w);
+    }
+    let reference = with[0].1.pareto();
+    let _ = write!(w, "| dominates the {} |", with[0].0.label);
+    for (_, m) in &with {
+        let d = crate::pareto::dominates(&m.pareto(), &reference);
+        let _ = write!(w, " {} |", if d { "yes" } else { "no" });
+    }
+    let _ = writeln!(w, "\n");
 }
 
 fn infeasible_reason(r: &Record) -> String {

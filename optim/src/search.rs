@@ -42,6 +42,18 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
+impl Overrides {
+    /// Writes the given overrides into `config`.
+    pub fn apply(&self, config: &mut OptimConfig) {
+        if let Some(n) = self.budget_evals {
+            config.budget.evaluations = Some(n);
+        }
+        if let Some(s) = self.seed {
+            config.seed = s;
+        }
+    }
+}
+
 /// A validated search: the effective config and its parameter space around the base
 /// design.
 #[derive(Debug, Clone)]
@@ -61,9 +73,11 @@ impl Setup {
     /// # Errors
     /// [`OptimError::Config`] listing every problem.
     pub fn load(config_path: &Path, overrides: &Overrides) -> Result<Self, OptimError> {
-        let config = OptimConfig::from_ron_file(config_path)?;
+        let mut config = OptimConfig::parse_ron_file(config_path)?;
+        overrides.apply(&mut config);
+        config.validate(&config_path.display().to_string())?;
         let base = Tdpcr::from_ron_file(config.base_design_path(config_path))?;
-        Self::new(config, base, config_path, overrides)
+        Self::new(config, base, config_path, &Overrides::default())
     }
 
     /// A setup from a parsed config and base design.
@@ -76,12 +90,7 @@ impl Setup {
         config_path: &Path,
         overrides: &Overrides,
     ) -> Result<Self, OptimError> {
-        if let Some(n) = overrides.budget_evals {
-            config.budget.evaluations = Some(n);
-        }
-        if let Some(s) = overrides.seed {
-            config.seed = s;
-        }
+        overrides.apply(&mut config);
         let mut v = Violations::default();
         config.check(Some(&base), &mut v);
         v.into_result(&config_path.display().to_string())?;
@@ -313,7 +322,11 @@ pub fn run_search(
             record
         }
     };
-    let composite = Composite::new(&config.objectives, reference.outcome.measures());
+    let composite = Composite::new(
+        &config.objectives,
+        config.aggregation,
+        reference.outcome.measures(),
+    );
     let reference = Record {
         composite: composite.of(&reference.outcome),
         ..reference
