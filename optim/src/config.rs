@@ -106,10 +106,10 @@ pub enum Aggregation {
     /// Weighted mean Σ w_k r_k / Σ w_k: trades one objective against another.
     #[default]
     Sum,
-    /// Weighted minimum min_k r_k^(w_k / max w) over the terms with w_k > 0: the worst
-    /// ratio to the reference counts (with equal weights, c > 1 means better than the
-    /// reference on every term), so the search is driven towards designs that dominate
-    /// the reference.
+    /// Weighted minimum min_k r_k^(w_k / max w) over the terms with w_k > 0, plus 1e-3 ×
+    /// (weighted mean − 1) to break ties: the worst ratio to the reference counts (with
+    /// equal weights, c > 1 means about "better than the reference on every term"), so the
+    /// search is driven towards designs that dominate the reference.
     Min,
 }
 

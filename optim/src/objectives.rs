@@ -70,9 +70,9 @@ pub struct Measures {
     /// are clear of Type I, Type II and leg singularities (none of the three flags of
     /// MODEL.md §4 raised at the cell's solved configuration), in \[0, 1\].
     ///
-    /// One scalar for the front, chosen over the other two sub-measures because they
-    /// do not discriminate between designs: the minimum scaled rcond(\[B_x B_u\]) is set
-    /// by the cells where rays end at a singularity (≈ 1e-11 for every design), and the
+    /// One scalar for the front, chosen over the other two sub-measures: the minimum
+    /// scaled rcond(\[B_x B_u\]) is a worst case set by the cells where rays end next to
+    /// a singularity (it measures the boundary, not the bulk, of the workspace), and the
     /// minimum tendon tension is 0 N whenever a tendon pair has one slack tendon
     /// somewhere (always, without pretension).
     pub singularity_margin: f64,
@@ -321,6 +321,11 @@ impl Outcome {
     }
 }
 
+/// Weight of the weighted mean in the [`Aggregation::Min`] composite: it breaks ties
+/// between designs with the same worst ratio, e.g. when a term saturates (a singularity
+/// margin of 1), which would otherwise leave CMA-ES without a direction.
+pub const MIN_TIE_BREAK: f64 = 1e-3;
+
 /// The weighted composite objective, normalized by the reference's measures.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Composite {
@@ -360,18 +365,23 @@ impl Composite {
 
     /// c (≥ 0; 1 for the reference), see the module documentation.
     pub fn value(&self, m: &Measures) -> f64 {
-        let ratios = self.terms.iter().map(|&(o, w, s)| (w, o.value(m) / s));
+        let ratios: Vec<(f64, f64)> = self
+            .terms
+            .iter()
+            .map(|&(o, w, s)| (w, o.value(m) / s))
+            .collect();
+        let total: f64 = self.terms.iter().map(|t| t.1).sum();
+        let mean = ratios.iter().map(|(w, r)| w * r).sum::<f64>() / total;
         match self.aggregation {
-            Aggregation::Sum => {
-                let total: f64 = self.terms.iter().map(|t| t.1).sum();
-                ratios.map(|(w, r)| w * r).sum::<f64>() / total
-            }
+            Aggregation::Sum => mean,
             Aggregation::Min => {
                 let w_max = self.terms.iter().map(|t| t.1).fold(0.0, f64::max);
-                ratios
-                    .filter(|&(w, _)| w > 0.0)
-                    .map(|(w, r)| r.powf(w / w_max))
-                    .fold(f64::INFINITY, f64::min)
+                let worst = ratios
+                    .iter()
+                    .filter(|&&(w, _)| w > 0.0)
+                    .map(|&(w, r)| r.powf(w / w_max))
+                    .fold(f64::INFINITY, f64::min);
+                worst + MIN_TIE_BREAK * (mean - 1.0)
             }
         }
     }

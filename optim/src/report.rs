@@ -397,7 +397,14 @@ pub fn report_markdown(
     }
     let _ = writeln!(
         w,
-        "\nVolumes in cm³ (1 cm³ = 1e-6 m³). The composite is Σ w·v/v_ref / Σ w over {}.\n",
+        "\nVolumes in cm³ (1 cm³ = 1e-6 m³). The composite is {} over {}.\n",
+        match result.composite.aggregation() {
+            crate::config::Aggregation::Sum => "Σ w·r / Σ w, r = v/v_ref (`Sum`)".to_string(),
+            crate::config::Aggregation::Min => format!(
+                "min r^(w / max w) + {} (Σ w·r / Σ w − 1), r = v/v_ref (`Min`: the worst ratio; the mean only breaks ties)",
+                crate::objectives::MIN_TIE_BREAK
+            ),
+        },
         result
             .composite
             .terms()
