@@ -96,7 +96,9 @@ pub struct WorkspaceSettings {
     /// Newton iterations allowed per step. A warm step of Δ = 3 mm needs 2–4, but steps
     /// across a leg-singularity line (a leg's tendon pair switching, paper Fig. 9) can need
     /// 20–50, and a smaller budget ends rays there (measured on the plane z = 0 of the
-    /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60).
+    /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60). A step
+    /// first gets 15 iterations and the rest only if those reduced ‖b‖ tenfold (a step past
+    /// a fold, where no solution exists, makes no such progress).
     pub max_iterations: usize,
 }
 
@@ -630,10 +632,20 @@ impl Worker {
         let zero = Wrench::default();
         let last = history[history.len() - 1];
         let predicted = predict(model, history);
-        let result = self
-            .solver
-            .solve_ik_newton(&pose, &zero, predicted.as_ref().unwrap_or(last));
+        let guess = predicted.as_ref().unwrap_or(last);
+        // A probe run first; the full budget only if the probe made progress.
+        let full = self.solver.settings.max_iterations;
+        self.solver.settings.max_iterations = full.min(PROBE_ITERATIONS);
+        let mut result = self.solver.solve_ik_newton(&pose, &zero, guess);
+        self.solver.settings.max_iterations = full;
         work.solves.fetch_add(1, Ordering::Relaxed);
+        if result.is_err() && full > PROBE_ITERATIONS {
+            let h = self.solver.residual_history();
+            if h.len() > 1 && h[0] >= PROBE_PROGRESS * h[h.len() - 1] {
+                result = self.solver.solve_ik_newton(&pose, &zero, guess);
+                work.solves.fetch_add(1, Ordering::Relaxed);
+            }
+        }
         let sol = result.map_err(|_| End::NotConverged)?;
         work.add(&sol.report);
         self.classify(model, sol.state)
@@ -682,6 +694,16 @@ impl Worker {
         }
     }
 }
+
+/// Newton iterations of a step's probe run. A step that fails within them is run again
+/// with the full [`WorkspaceSettings::max_iterations`] only if the probe reduced ‖b‖ by
+/// [`PROBE_PROGRESS`]: steps beyond a fold of the IK (no solution) crawl at their first
+/// residual, while the slow steps across a leg-singularity line make progress first.
+/// Measured on the plane z = 0 at Δ = 3 mm: the same 1581 cells, 14 % fewer instructions
+/// (φ = 0.1: 8.8 G against 10.2 G).
+const PROBE_ITERATIONS: usize = 15;
+/// See [`PROBE_ITERATIONS`].
+const PROBE_PROGRESS: f64 = 10.0;
 
 /// Solutions used by the predictor of a path step: the last three give a quadratic
 /// extrapolation.
