@@ -36,6 +36,7 @@ pub mod kinetostatics;
 pub mod linalg;
 pub mod model;
 pub mod newton;
+pub mod redundancy;
 pub mod rod;
 pub mod sampling;
 pub mod tdcr;
