@@ -477,54 +477,38 @@ pub fn sweep_workspace_with_progress(
         rays_done: 0,
         rays_total,
     });
+    let on_ray_done = || {
+        let done = rays_done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress(Progress {
+            rays_done: done,
+            rays_total,
+        });
+    };
+    // Planes in parallel and, inside each, rays and cells in parallel: a thread that waits
+    // for the last ray of a plane takes work from another plane.
+    let sweeps: Vec<Result<PlaneSweep, Error>> = planes
+        .origins
+        .par_iter()
+        .map(|(k, origin)| {
+            let job = PlaneJob {
+                worker: &worker,
+                model: &model,
+                settings,
+                work: &work,
+                on_ray_done: &on_ray_done,
+            };
+            job.sweep(*k, origin, n_rays)
+        })
+        .collect();
     let mut points = Vec::new();
     let mut ray_ends = RayEnds::default();
-    for (k, origin) in &planes.origins {
-        let rays: Vec<Ray> = (0..n_rays)
-            .into_par_iter()
-            .map_init(
-                || worker.clone(),
-                |w, j| {
-                    let ray = w.follow_ray(&model, settings, origin, j, &work);
-                    let done = rays_done.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(Progress {
-                        rays_done: done,
-                        rays_total,
-                    });
-                    ray
-                },
-            )
-            .collect();
-        for r in &rays {
-            match r.end {
-                End::NotConverged => ray_ends.not_converged += 1,
-                End::Limits => ray_ends.actuation_limits += 1,
-                End::Collision => ray_ends.collision += 1,
-                End::MaxRadius => ray_ends.max_radius += 1,
-            }
-        }
-        let reps = representatives(settings.step, origin, &rays);
-        let measured: Vec<Result<WorkspacePoint, Error>> = reps
-            .par_iter()
-            .map_init(
-                || worker.clone(),
-                |w, rep| {
-                    let metrics =
-                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
-                    Ok(WorkspacePoint {
-                        cell: [rep.cell.1, rep.cell.0, *k],
-                        position: rep.sample.state.position,
-                        tensions: tensions(&model, &rep.sample.state),
-                        state: rep.sample.state.clone(),
-                        collision: rep.sample.collision,
-                        metrics,
-                    })
-                },
-            )
-            .collect();
-        for m in measured {
-            points.push(m?);
-        }
+    for sweep in sweeps {
+        let sweep = sweep?;
+        points.extend(sweep.points);
+        ray_ends.not_converged += sweep.ray_ends.not_converged;
+        ray_ends.actuation_limits += sweep.ray_ends.actuation_limits;
+        ray_ends.collision += sweep.ray_ends.collision;
+        ray_ends.max_radius += sweep.ray_ends.max_radius;
     }
     let wall = start.elapsed().as_secs_f64();
     let summary = summarize(settings, &planes, n_rays, &points, ray_ends, &work, wall);
@@ -535,6 +519,69 @@ pub fn sweep_workspace_with_progress(
         points,
         summary,
     })
+}
+
+/// The cells of one plane and why its rays ended.
+struct PlaneSweep {
+    points: Vec<WorkspacePoint>,
+    ray_ends: RayEnds,
+}
+
+/// What sweeping a plane needs.
+struct PlaneJob<'a> {
+    worker: &'a Worker,
+    model: &'a Model,
+    settings: &'a WorkspaceSettings,
+    work: &'a Work,
+    on_ray_done: &'a (dyn Fn() + Sync),
+}
+
+impl PlaneJob<'_> {
+    /// The rays of plane k from its origin (in parallel), the cell representatives, and
+    /// their measures (in parallel).
+    fn sweep(&self, k: i64, origin: &Sample, n_rays: usize) -> Result<PlaneSweep, Error> {
+        let (model, settings) = (self.model, self.settings);
+        let rays: Vec<Ray> = (0..n_rays)
+            .into_par_iter()
+            .map_init(
+                || self.worker.clone(),
+                |w, j| {
+                    let ray = w.follow_ray(model, settings, origin, j, self.work);
+                    (self.on_ray_done)();
+                    ray
+                },
+            )
+            .collect();
+        let mut ray_ends = RayEnds::default();
+        for r in &rays {
+            match r.end {
+                End::NotConverged => ray_ends.not_converged += 1,
+                End::Limits => ray_ends.actuation_limits += 1,
+                End::Collision => ray_ends.collision += 1,
+                End::MaxRadius => ray_ends.max_radius += 1,
+            }
+        }
+        let reps = representatives(settings.step, origin, &rays);
+        let points = reps
+            .par_iter()
+            .map_init(
+                || self.worker.clone(),
+                |w, rep| {
+                    let metrics =
+                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
+                    Ok(WorkspacePoint {
+                        cell: [rep.cell.1, rep.cell.0, k],
+                        position: rep.sample.state.position,
+                        tensions: tensions(model, &rep.sample.state),
+                        state: rep.sample.state.clone(),
+                        collision: rep.sample.collision,
+                        metrics,
+                    })
+                },
+            )
+            .collect::<Result<Vec<_>, Error>>()?;
+        Ok(PlaneSweep { points, ray_ends })
+    }
 }
 
 /// Tendon tensions \[N\] of a state, legs concatenated.
