@@ -435,8 +435,9 @@ pub struct Progress {
 /// Sweeps the workspace of `design` (see the module documentation).
 ///
 /// # Errors
-/// [`Error::Input`] for bad settings; [`Error::Solve`] if the home configuration (the
-/// platform at the origin with R_ee) cannot be solved.
+/// [`Error::Design`] for a design that breaks its rules; [`Error::Input`] for bad
+/// settings; [`Error::Solve`] if the home configuration (the platform at the origin with
+/// R_ee) cannot be solved.
 ///
 /// # Example
 /// ```no_run
@@ -464,6 +465,7 @@ pub fn sweep_workspace_with_progress(
     settings: &WorkspaceSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<WorkspaceMap, Error> {
+    design.validate("design")?;
     settings.validate()?;
     let start = Instant::now();
     let worker = Worker::new(design, settings);
