@@ -133,4 +133,7 @@ pub enum Error {
     /// A kinetostatic analysis failed (an exactly singular matrix).
     #[error(transparent)]
     Analysis(#[from] crate::analysis::AnalysisError),
+    /// A plot could not be written.
+    #[error(transparent)]
+    Plot(#[from] crate::analysis::plot::PlotError),
 }
