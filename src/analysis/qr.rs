@@ -29,8 +29,8 @@ pub(crate) struct LegQr {
     pub ny: usize,
 }
 
-/// A triangular n × n matrix stored column-major with leading dimension `ld` (a view
-/// into a [`LegQr`]).
+/// An upper-triangular n × n matrix stored column-major with leading dimension `ld` (a
+/// view into a [`LegQr`]).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Triangle<'a> {
     /// Column-major entries; column j starts at j·ld.
