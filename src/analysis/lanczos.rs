@@ -22,6 +22,8 @@ pub(crate) const TOLERANCE: f64 = 1e-5;
 #[derive(Debug, Clone)]
 pub(crate) struct Lanczos {
     work: Work,
+    /// 1 / R_jj of the current σ_min matrix (divisions hoisted out of the solves).
+    inv_diag: Vec<f64>,
     /// The Ritz vector of the last [`Lanczos::sigma_max`] (a right singular vector).
     ritz: Vec<f64>,
     ritz_len: usize,
@@ -60,6 +62,7 @@ impl Lanczos {
                 beta: vec![0.0; n],
                 steps: 0,
             },
+            inv_diag: vec![0.0; n],
             ritz: vec![0.0; n],
             ritz_len: 0,
         }
@@ -103,8 +106,12 @@ impl Lanczos {
         if r.is_singular() {
             return 0.0;
         }
+        for (j, d) in self.inv_diag[..n].iter_mut().enumerate() {
+            *d = 1.0 / r.column(j)[j];
+        }
+        let inv = &self.inv_diag[..n];
         let w = &mut self.work;
-        estimator_start(r, &mut w.tmp[..n], &mut w.basis[..n]);
+        estimator_start(r, inv, &mut w.tmp[..n], &mut w.basis[..n]);
         let norm = dot(&w.basis[..n], &w.basis[..n]).sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             start_vector(&mut w.basis[..n]);
@@ -112,8 +119,8 @@ impl Lanczos {
             w.basis[..n].iter_mut().for_each(|x| *x /= norm);
         }
         let lambda = w.largest_eigenvalue(n, |x, y, tmp| {
-            solve_upper_transpose(r, x, tmp);
-            solve_upper(r, tmp, y);
+            solve_upper_transpose(r, inv, x, tmp);
+            solve_upper(r, inv, tmp, y);
         });
         if lambda.is_finite() && lambda > 0.0 {
             1.0 / lambda.sqrt()
@@ -199,14 +206,14 @@ impl Work {
 }
 
 /// x = R⁻¹ y with Rᵀ y = e, e_j = ±1 chosen so that |y_j| grows (`tmp` holds y).
-fn estimator_start(r: Triangle, tmp: &mut [f64], x: &mut [f64]) {
+fn estimator_start(r: Triangle, inv: &[f64], tmp: &mut [f64], x: &mut [f64]) {
     for j in 0..r.n {
         let col = r.column(j);
         let s = dot(&col[..j], &tmp[..j]);
         let e = if s > 0.0 { -1.0 } else { 1.0 };
         tmp[j] = (e - s) / col[j];
     }
-    solve_upper(r, tmp, x);
+    solve_upper(r, inv, tmp, x);
 }
 
 /// A fixed pseudo-random unit vector (xorshift), so no symmetry of the matrix can make
@@ -240,8 +247,28 @@ fn top_ritz(alpha: &[f64], beta: &[f64], theta_prev: f64) -> (f64, f64) {
     if !(upper > 0.0 && upper.is_finite()) {
         return (upper, 1.0);
     }
-    // Work in units of the bound to keep χ of order one.
+    // Work in units of the bound to keep χ of order one (divisions hoisted out of the
+    // Newton loop: they sat on its dependency chain).
     let scale = upper;
+    let mut a_buf = [0.0; 64];
+    let mut b_buf = [0.0; 64];
+    let (mut a_vec, mut b_vec) = (Vec::new(), Vec::new());
+    let (a, b2) = if k <= 64 {
+        (&mut a_buf[..k], &mut b_buf[..k])
+    } else {
+        a_vec.resize(k, 0.0);
+        b_vec.resize(k, 0.0);
+        (&mut a_vec[..], &mut b_vec[..])
+    };
+    let inv = 1.0 / scale;
+    for i in 0..k {
+        a[i] = alpha[i] * inv;
+        b2[i] = if i > 0 {
+            (beta[i - 1] * inv).powi(2)
+        } else {
+            0.0
+        };
+    }
     let mut lambda = 1.0;
     let mut chi_prev_row = 0.0;
     let mut derivative = 1.0;
@@ -249,14 +276,8 @@ fn top_ritz(alpha: &[f64], beta: &[f64], theta_prev: f64) -> (f64, f64) {
         let (mut c2, mut c1) = (0.0, 1.0);
         let (mut d2, mut d1) = (0.0, 0.0);
         for i in 0..k {
-            let a = alpha[i] / scale;
-            let b2 = if i > 0 {
-                (beta[i - 1] / scale).powi(2)
-            } else {
-                0.0
-            };
-            let c = (lambda - a) * c1 - b2 * c2;
-            let d = c1 + (lambda - a) * d1 - b2 * d2;
+            let c = (lambda - a[i]) * c1 - b2[i] * c2;
+            let d = c1 + (lambda - a[i]) * d1 - b2[i] * d2;
             if i + 1 == k {
                 chi_prev_row = c1;
             }
@@ -342,33 +363,33 @@ fn upper_transpose_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
     }
 }
 
-/// Solves Rᵀ y = x (forward substitution).
-fn solve_upper_transpose(r: Triangle, x: &[f64], y: &mut [f64]) {
+/// Solves Rᵀ y = x (forward substitution); `inv` holds 1 / R_jj.
+fn solve_upper_transpose(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
     let n = r.n;
     let mut j = 0;
     while j + 1 < n {
         let (a, b) = (r.column(j), r.column(j + 1));
         let (sa, sb) = dot2(&a[..j], &b[..j], &y[..j]);
-        let yj = (x[j] - sa) / a[j];
+        let yj = (x[j] - sa) * inv[j];
         y[j] = yj;
-        y[j + 1] = (x[j + 1] - sb - b[j] * yj) / b[j + 1];
+        y[j + 1] = (x[j + 1] - sb - b[j] * yj) * inv[j + 1];
         j += 2;
     }
     if j < n {
         let col = r.column(j);
-        y[j] = (x[j] - dot(&col[..j], &y[..j])) / col[j];
+        y[j] = (x[j] - dot(&col[..j], &y[..j])) * inv[j];
     }
 }
 
-/// Solves R y = x (back substitution).
-fn solve_upper(r: Triangle, x: &[f64], y: &mut [f64]) {
+/// Solves R y = x (back substitution); `inv` holds 1 / R_jj.
+fn solve_upper(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
     let n = r.n;
     y[..n].copy_from_slice(&x[..n]);
     let mut j = n;
     while j >= 2 {
         let (a, b) = (r.column(j - 2), r.column(j - 1));
-        let yb = y[j - 1] / b[j - 1];
-        let ya = (y[j - 2] - yb * b[j - 2]) / a[j - 2];
+        let yb = y[j - 1] * inv[j - 1];
+        let ya = (y[j - 2] - yb * b[j - 2]) * inv[j - 2];
         y[j - 1] = yb;
         y[j - 2] = ya;
         for ((yi, ai), bi) in y[..j - 2].iter_mut().zip(a).zip(b) {
@@ -377,7 +398,7 @@ fn solve_upper(r: Triangle, x: &[f64], y: &mut [f64]) {
         j -= 2;
     }
     if j == 1 {
-        y[0] /= r.column(0)[0];
+        y[0] *= inv[0];
     }
 }
 
@@ -495,9 +516,10 @@ mod tests {
                 (nalgebra::DVector::from_column_slice(&y) - r.transpose() * &xv).norm()
                     < 1e-9 * r.norm()
             );
-            solve_upper(tri(&r), &x, &mut y);
+            let inv: Vec<f64> = (0..n).map(|j| 1.0 / r[(j, j)]).collect();
+            solve_upper(tri(&r), &inv, &x, &mut y);
             assert!((&r * nalgebra::DVector::from_column_slice(&y) - &xv).norm() < 1e-9);
-            solve_upper_transpose(tri(&r), &x, &mut y);
+            solve_upper_transpose(tri(&r), &inv, &x, &mut y);
             assert!((r.transpose() * nalgebra::DVector::from_column_slice(&y) - &xv).norm() < 1e-9);
         }
     }
