@@ -38,6 +38,7 @@ pub mod kinetostatics;
 pub mod linalg;
 pub mod model;
 pub mod newton;
+pub mod output;
 pub mod redundancy;
 pub mod rod;
 pub mod sampling;
