@@ -1,7 +1,8 @@
 //! The workspace sweep of the reference design at R_ee = I (MODEL.md §6).
 //!
-//! - criterion: a coarse sweep (Δ = 10 mm, φ = 0.35 rad, the default z-range) on 1 and on
-//!   2 threads (the design optimizer's kind of call; 10 samples each).
+//! - criterion: a coarse sweep (Δ = 10 mm, φ = 0.1 rad: rays at most Δ apart out to
+//!   0.1 m; the default z-range) on 1 and on 2 threads (the design optimizer's kind of
+//!   call; 10 samples each).
 //! - `TDPCR_BENCH_FULL=1 cargo bench --bench workspace`: additionally the paper's sweep
 //!   (Δ = 3 mm, φ = 0.035 rad) once on all cores, printing wall time, solves per second
 //!   and cell counts (criterion needs at least 10 samples, too long for a sweep of minutes).
@@ -31,7 +32,7 @@ fn bench_coarse(c: &mut Criterion) {
     let d = design();
     let settings = WorkspaceSettings {
         step: 0.01,
-        angle_step: 0.35,
+        angle_step: 0.1,
         ..Default::default()
     };
     let mut group = c.benchmark_group("workspace");

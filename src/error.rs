@@ -133,6 +133,9 @@ pub enum Error {
     /// A kinetostatic analysis failed (an exactly singular matrix).
     #[error(transparent)]
     Analysis(#[from] crate::analysis::AnalysisError),
+    /// A plot could not be written.
+    #[error(transparent)]
+    Plot(#[from] crate::analysis::plot::PlotError),
     /// An output file or directory could not be written.
     #[error("cannot write {path}: {source}")]
     Output {

@@ -25,17 +25,18 @@ use crate::error::{Error, SolveError, Violations};
 use crate::linalg::DenseLu;
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
+use crate::redundancy::{Redundancy, within_limits_ik};
 use crate::rod::Wrench;
 use crate::rod::tendon::TendonUnknown;
 
 /// The tendon variable Newton iterates on (states report γ): the piecewise-linear ζ
 /// converges in a few steps where γ stalls near the taut/slack boundary.
-const SOLVER_TENDON_UNKNOWN: TendonUnknown = TendonUnknown::Linear;
+pub(crate) const SOLVER_TENDON_UNKNOWN: TendonUnknown = TendonUnknown::Linear;
 
 /// Weight ε of the scaled leg unknowns in the least-norm IK step (q in metres). Without
 /// it the step can move far along null-space directions that change q little (measured:
 /// the line search then stalls; 1e-6 to 1e-4 converge in 3–5 steps).
-const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
+pub(crate) const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
 use crate::tdcr::{TendonControl, cold_guess_at};
 
 /// How the Newton Jacobian is obtained.
@@ -107,6 +108,9 @@ pub struct Solver {
     pub settings: NewtonSettings,
     /// Jacobian used by Newton.
     pub jacobian: JacobianMethod,
+    /// How IK of the 9-DoF design chooses among its solutions (least-norm steps by
+    /// default; [`Redundancy::WithinLimits`] keeps q within its limits).
+    pub redundancy: Redundancy,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
     /// (the tangent predictor of warm starts from it).
     last: Option<LastSolve>,
@@ -169,6 +173,7 @@ impl Solver {
             model,
             settings,
             jacobian: JacobianMethod::Exact,
+            redundancy: Redundancy::LeastNorm,
             last: None,
         }
     }
@@ -282,7 +287,10 @@ impl Solver {
 
     /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
     /// under its weight plus `extra`. The 6-DoF design solves the square system; the 9-DoF
-    /// design takes, at every Gauss–Newton step, the least-norm change of q.
+    /// design resolves its redundancy as [`Solver::redundancy`] says: by default the
+    /// least-norm change of q at every Gauss–Newton step, or with
+    /// [`Redundancy::WithinLimits`] a QP step that keeps q within its limits
+    /// ([`crate::redundancy`]).
     ///
     /// # Errors
     /// As [`Solver::solve_fk`].
@@ -342,7 +350,6 @@ impl Solver {
         convert_tendon_unknowns(model, &mut y, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
         let mut weights = DVector::zeros(m);
         row_weights(model, &mut weights);
-        let merit = |r: &DVector<f64>| r.component_mul(&weights).norm_squared();
         let mut r = DVector::zeros(m);
         let mut kkt = DMatrix::zeros(n, n);
         let mut rhs = DVector::zeros(n);
@@ -433,44 +440,23 @@ impl Solver {
             for j in 0..nu {
                 rhs[nq + j] *= scale[j];
             }
-            let m0 = merit(&r);
-            let mut alpha = 1.0;
-            let mut trial = DVector::zeros(m);
-            loop {
-                let q_t: Vec<f64> = q
-                    .iter()
-                    .enumerate()
-                    .map(|(i, x)| x + alpha * rhs[i])
-                    .collect();
-                let y_t: Vec<f64> = y
-                    .iter()
-                    .enumerate()
-                    .map(|(i, x)| x + alpha * rhs[nq + i])
-                    .collect();
-                let p = BoundaryPoint {
-                    pose,
-                    q: &q_t,
-                    wrench,
-                    y_u: &y_t,
-                    tendon_unknown: SOLVER_TENDON_UNKNOWN,
-                };
-                report.residual_evaluations += 1;
-                let ok = boundary_residual(model, &mut self.boundary, &p, &mut trial).is_ok()
-                    && trial.iter().all(|x| x.is_finite());
-                if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
-                    q = q_t;
-                    y = y_t;
-                    break;
-                }
-                alpha *= 0.5;
-                if alpha < 1e-6 {
-                    return Err(SolveError::NotConverged {
-                        iterations: report.iterations,
-                        residual_norm: report.residual_norm,
-                        tolerance: settings.tolerance,
-                        reason: "line search failed",
-                    });
-                }
+            let step = (&rhs.as_slice()[..nq], &rhs.as_slice()[nq..nq + nu]);
+            let at = (pose, wrench);
+            if !backtrack(
+                model,
+                &mut self.boundary,
+                at,
+                (&weights, &r),
+                (&mut q, &mut y),
+                step,
+                &mut report,
+            ) {
+                return Err(SolveError::NotConverged {
+                    iterations: report.iterations,
+                    residual_norm: report.residual_norm,
+                    tolerance: settings.tolerance,
+                    reason: "line search failed",
+                });
             }
             report.iterations += 1;
         }
@@ -540,7 +526,19 @@ impl Solver {
             Target::Inverse(pose) if self.model.pairs == 1 => {
                 self.run_with(scaled, settings, Problem::Inverse { pose }, wrench, guess)
             }
-            Target::Inverse(pose) => self.least_norm_ik(scaled, settings, pose, wrench, guess),
+            Target::Inverse(pose) => match &self.redundancy {
+                Redundancy::LeastNorm => self.least_norm_ik(scaled, settings, pose, wrench, guess),
+                Redundancy::WithinLimits(objective) => within_limits_ik(
+                    scaled.unwrap_or(&self.model),
+                    &mut self.boundary,
+                    &mut self.blocks,
+                    settings,
+                    pose,
+                    wrench,
+                    guess,
+                    objective,
+                ),
+            },
         }
     }
 
@@ -984,7 +982,7 @@ pub fn straight_leg_pose(model: &Model, q: &[f64]) -> Pose {
 
 /// Merit-function weights of the residual rows: force rows by L²/(EI), moment rows by
 /// L/(EI), coupling rows by 1/L, tendon-length rows by 1/D (each row ~ an angle).
-fn row_weights(model: &Model, w: &mut DVector<f64>) {
+pub(crate) fn row_weights(model: &Model, w: &mut DVector<f64>) {
     let leg = &model.leg;
     let ei = leg.bending_stiffness();
     let len = leg.length;
@@ -1005,6 +1003,47 @@ fn row_weights(model: &Model, w: &mut DVector<f64>) {
             }
         };
     }
+}
+
+/// Backtracking line search of an IK step (least-norm or QP) from (q, y) (solver
+/// tendon unknowns, residual `r` there) along (δq, δy): α = 1, ½, … until the weighted
+/// residual ‖W b‖² falls below (1 − 1e-4 α) of ‖W r‖² (Armijo); moves (q, y) and
+/// returns true, or false once α < 1e-6.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn backtrack(
+    model: &Model,
+    boundary: &mut BoundaryScratch,
+    (pose, wrench): (&Pose, &Wrench),
+    (weights, r): (&DVector<f64>, &DVector<f64>),
+    (q, y): (&mut Vec<f64>, &mut Vec<f64>),
+    (dq, dy): (&[f64], &[f64]),
+    report: &mut NewtonReport,
+) -> bool {
+    let merit = |r: &DVector<f64>| r.component_mul(weights).norm_squared();
+    let mut trial = DVector::zeros(model.n_residuals());
+    let m0 = merit(r);
+    let mut alpha = 1.0;
+    while alpha >= 1e-6 {
+        let q_t: Vec<f64> = q.iter().zip(dq).map(|(x, d)| x + alpha * d).collect();
+        let y_t: Vec<f64> = y.iter().zip(dy).map(|(x, d)| x + alpha * d).collect();
+        let p = BoundaryPoint {
+            pose,
+            q: &q_t,
+            wrench,
+            y_u: &y_t,
+            tendon_unknown: SOLVER_TENDON_UNKNOWN,
+        };
+        report.residual_evaluations += 1;
+        let ok = boundary_residual(model, boundary, &p, &mut trial).is_ok()
+            && trial.iter().all(|x| x.is_finite());
+        if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
+            *q = q_t;
+            *y = y_t;
+            return true;
+        }
+        alpha *= 0.5;
+    }
+    false
 }
 
 /// The shooting problem as a [`NonlinearSystem`].

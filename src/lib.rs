@@ -12,7 +12,9 @@
 //! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control;
 //! - [`kinetostatics`]: FK and IK of the parallel robot ([`kinetostatics::Solver`]);
 //! - [`analysis`]: Jacobians, compliance, singularity measures and ellipsoids of a solved
-//!   configuration ([`kinetostatics::Solver::analyze`], [`analysis::analyze_blocks`]).
+//!   configuration ([`kinetostatics::Solver::analyze`], [`analysis::analyze_blocks`]);
+//! - [`workspace`]: the translational workspace for a fixed orientation (paper Sec. V-B),
+//!   rays of warm-started IK in parallel ([`workspace::sweep_workspace`]).
 //!
 //! ```
 //! use tdpcr::{Tdcr, tdcr::{TdcrSolver, TendonControl, TipWrench}};
@@ -36,6 +38,8 @@ pub mod kinetostatics;
 pub mod linalg;
 pub mod model;
 pub mod newton;
+pub mod output;
+pub mod redundancy;
 pub mod rod;
 pub mod sampling;
 pub mod tdcr;

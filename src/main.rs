@@ -8,9 +8,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use tdpcr::analysis::{Analysis, AnalysisSettings, Rconds};
 use tdpcr::boundary::FiniteDifference;
 use tdpcr::error::Error;
 use tdpcr::kinetostatics::{JacobianMethod, RobotState, Solution, Solver};
+use tdpcr::redundancy::{Objective, Redundancy};
 use tdpcr::rod::Wrench;
 use tdpcr::tdcr::{TdcrSolver, TdcrState, TendonControl, TipWrench, rows};
 use tdpcr::{Tdcr, Tdpcr};
@@ -29,8 +31,11 @@ enum Command {
     Tdcr(TdcrArgs),
     /// Forward kinetostatics of a parallel robot: the platform pose for actuation q.
     Fk(FkArgs),
-    /// Inverse kinetostatics of a parallel robot (6-DoF design): the actuation for a pose.
+    /// Inverse kinetostatics of a parallel robot: the actuation for a pose.
     Ik(IkArgs),
+    /// Kinetostatic analysis of a configuration (FK of --q or IK of --position):
+    /// Jacobians, compliance, singularity measures, ellipsoids.
+    Analyze(AnalyzeArgs),
     /// Solve a sequence of IK poses or FK actuations, each warm-started from the last.
     Trajectory(TrajectoryArgs),
     /// Compare the exact Jacobian blocks with finite differences and time both.
@@ -179,6 +184,96 @@ struct IkArgs {
     /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) \[rad\], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     rotvec: Option<Vector3<f64>>,
+    #[command(flatten)]
+    redundancy: RedundancyArgs,
+    #[command(flatten)]
+    solve: SolveArgs,
+}
+
+/// How IK of the 9-DoF design treats the actuation limits.
+#[derive(Clone, Copy, ValueEnum, Default, PartialEq)]
+enum LimitsArg {
+    /// Least-norm steps; q may leave its limits (the default).
+    #[default]
+    Free,
+    /// Every Newton step a QP that keeps q within its limits.
+    Strict,
+}
+
+/// Redundancy resolution of the 9-DoF design (ignored by the 6-DoF design).
+#[derive(clap::Args)]
+struct RedundancyArgs {
+    /// Actuation limits in IK of the 9-DoF design: `free` (least-norm steps, limits not
+    /// enforced) or `strict` (QP steps within the design's actuation_limits).
+    #[arg(long, value_enum, default_value_t)]
+    limits: LimitsArg,
+    /// With --limits strict: stay close to this actuation Q1,...,Q9 \[m\] instead of
+    /// changing q least.
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
+    reference: Option<Values>,
+}
+
+impl RedundancyArgs {
+    /// Checks the values and sets the solver's redundancy resolution.
+    fn apply(&self, solver: &mut Solver) -> Result<(), Error> {
+        let n = solver.model().n_actuators();
+        let mut v = tdpcr::error::Violations::default();
+        if let Some(r) = &self.reference {
+            if self.limits != LimitsArg::Strict {
+                v.push("--reference", "given", "only with --limits strict");
+            }
+            if r.0.len() != n {
+                v.push(
+                    "--reference",
+                    format!("{} values", r.0.len()),
+                    &format!("{n} values: per leg [bend_x, (bend_y), translation]"),
+                );
+            }
+            if !r.0.iter().all(|x| x.is_finite()) {
+                v.push("--reference", "a non-finite value", "finite numbers [m]");
+            }
+        }
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        solver.redundancy = match (self.limits, &self.reference) {
+            (LimitsArg::Free, _) => Redundancy::LeastNorm,
+            (LimitsArg::Strict, None) => Redundancy::WithinLimits(Objective::LeastChange),
+            (LimitsArg::Strict, Some(r)) => {
+                Redundancy::WithinLimits(Objective::ClosestTo(r.0.clone()))
+            }
+        };
+        Ok(())
+    }
+}
+
+#[derive(clap::Args)]
+struct AnalyzeArgs {
+    /// Design file (RON, `Tdpcr(...)`).
+    design: PathBuf,
+    /// Analyse the FK solution of this actuation Q1,...,Qn \[m\].
+    #[arg(long, value_parser = parse_list, allow_hyphen_values = true, conflicts_with = "position", required_unless_present = "position")]
+    q: Option<Values>,
+    /// Analyse the IK solution of this platform position X,Y,Z \[m\], world frame.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    position: Option<Vector3<f64>>,
+    /// With --position: platform orientation as a rotation vector RX,RY,RZ \[rad\].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "position")]
+    rotvec: Option<Vector3<f64>>,
+    /// Write the ellipsoids' xy and xz views as SVG files into this directory.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Type I flag threshold on the raw rcond of [B_q B_u] (default 3.5e-9).
+    #[arg(long)]
+    type_i_threshold: Option<f64>,
+    /// Type II flag threshold on the raw rcond of [B_x B_u] (default 3.5e-9, the paper's).
+    #[arg(long)]
+    type_ii_threshold: Option<f64>,
+    /// Leg-singularity flag threshold on the raw rcond of B_u (default 3.5e-9).
+    #[arg(long)]
+    leg_threshold: Option<f64>,
+    #[command(flatten)]
+    redundancy: RedundancyArgs,
     #[command(flatten)]
     solve: SolveArgs,
 }
@@ -337,6 +432,41 @@ struct ParallelOutput {
     state: RobotState,
 }
 
+impl ParallelOutput {
+    /// Pose, actuation and tensions, one per line.
+    fn print_configuration(&self) {
+        let (p, r) = (self.position, self.rotvec);
+        println!(
+            "position [m]      {:>12.6} {:>12.6} {:>12.6}",
+            p[0], p[1], p[2]
+        );
+        println!(
+            "rotvec [rad]      {:>12.6} {:>12.6} {:>12.6}",
+            r[0], r[1], r[2]
+        );
+        println!("q [m]             {:?}", self.q);
+        for (i, t) in self.tensions.iter().enumerate() {
+            println!("leg {i} tensions [N] {t:?}");
+        }
+    }
+
+    fn new(solver: &Solver, sol: &Solution) -> Self {
+        Self {
+            converged: true,
+            position: sol.state.position,
+            rotation: rows(&sol.state.pose().rotation),
+            rotvec: sol.state.rotvec,
+            q: sol.state.q.clone(),
+            tensions: sol.tensions(solver.model()),
+            iterations: sol.report.iterations,
+            residual_evaluations: sol.report.residual_evaluations,
+            residual_norm: sol.report.residual_norm,
+            solve_time_us: sol.solve_time_us,
+            state: sol.state.clone(),
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct FailureOutput {
     converged: bool,
@@ -428,40 +558,14 @@ fn report(solver: &Solver, result: Result<Solution, Error>, format: Format) -> R
             return Err(e);
         }
     };
-    let pose = sol.state.pose();
-    let out = ParallelOutput {
-        converged: true,
-        position: sol.state.position,
-        rotation: rows(&pose.rotation),
-        rotvec: sol.state.rotvec,
-        q: sol.state.q.clone(),
-        tensions: sol.tensions(solver.model()),
-        iterations: sol.report.iterations,
-        residual_evaluations: sol.report.residual_evaluations,
-        residual_norm: sol.report.residual_norm,
-        solve_time_us: sol.solve_time_us,
-        state: sol.state.clone(),
-    };
+    let out = ParallelOutput::new(solver, &sol);
     match format {
         Format::Json => println!(
             "{}",
             serde_json::to_string_pretty(&out).expect("plain data serializes")
         ),
         Format::Text => {
-            let p = out.position;
-            let r = out.rotvec;
-            println!(
-                "position [m]      {:>12.6} {:>12.6} {:>12.6}",
-                p[0], p[1], p[2]
-            );
-            println!(
-                "rotvec [rad]      {:>12.6} {:>12.6} {:>12.6}",
-                r[0], r[1], r[2]
-            );
-            println!("q [m]             {:?}", out.q);
-            for (i, t) in out.tensions.iter().enumerate() {
-                println!("leg {i} tensions [N] {t:?}");
-            }
+            out.print_configuration();
             println!(
                 "converged in {} iterations ({} residual evaluations, {:.0} µs), residual norm {:.2e}",
                 out.iterations, out.residual_evaluations, out.solve_time_us, out.residual_norm
@@ -477,14 +581,13 @@ fn run_fk(args: &FkArgs) -> Result<(), Error> {
     report(&solver, result, args.solve.format)
 }
 
-fn run_ik(args: &IkArgs) -> Result<(), Error> {
-    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
-    let rotvec = args.rotvec.unwrap_or_default();
-    if !rotvec
-        .iter()
-        .chain(args.position.iter())
-        .all(|x| x.is_finite())
-    {
+/// The pose of --position and --rotvec.
+fn pose_arg(
+    position: Vector3<f64>,
+    rotvec: Option<Vector3<f64>>,
+) -> Result<tdpcr::model::Pose, Error> {
+    let rotvec = rotvec.unwrap_or_default();
+    if !rotvec.iter().chain(position.iter()).all(|x| x.is_finite()) {
         let mut v = tdpcr::error::Violations::default();
         v.push(
             "--position/--rotvec",
@@ -493,12 +596,179 @@ fn run_ik(args: &IkArgs) -> Result<(), Error> {
         );
         return Err(Error::Input(v));
     }
-    let pose = tdpcr::model::Pose {
-        position: args.position,
+    Ok(tdpcr::model::Pose {
+        position,
         rotation: *nalgebra::Rotation3::new(rotvec).matrix(),
-    };
+    })
+}
+
+fn run_ik(args: &IkArgs) -> Result<(), Error> {
+    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
+    args.redundancy.apply(&mut solver)?;
+    let pose = pose_arg(args.position, args.rotvec)?;
     let result = solver.solve_ik(&pose, &wrench, init.as_ref());
     report(&solver, result, args.solve.format)
+}
+
+/// rcond of the raw SI and of the unit-scaled matrices.
+#[derive(Serialize)]
+struct RcondOutput {
+    raw: Rconds,
+    scaled: Rconds,
+}
+
+#[derive(Serialize)]
+struct AnalyzeOutput {
+    /// The solve (as `fk`/`ik` print it).
+    #[serde(flatten)]
+    solution: ParallelOutput,
+    analysis_time_us: f64,
+    /// J_FK (6 × n_q, nested rows).
+    j_fk: Vec<Vec<f64>>,
+    /// J_IK (n_q × 6).
+    j_ik: Vec<Vec<f64>>,
+    /// C (6 × 6).
+    compliance: Vec<Vec<f64>>,
+    lambda_fk: Vec<Vec<f64>>,
+    lambda_ik: Vec<Vec<f64>>,
+    lambda_c: Vec<Vec<f64>>,
+    rcond: RcondOutput,
+    singularity: tdpcr::analysis::Singularity,
+    thresholds: AnalysisSettings,
+    ellipsoids: tdpcr::analysis::Ellipsoids,
+    min_tension: f64,
+    /// SVG files written by --plot.
+    plots: Vec<PathBuf>,
+}
+
+/// A matrix as nested rows.
+fn nested_rows(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
+}
+
+fn run_analyze(args: &AnalyzeArgs) -> Result<(), Error> {
+    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
+    args.redundancy.apply(&mut solver)?;
+    let defaults = AnalysisSettings::default();
+    let settings = AnalysisSettings {
+        type_i_threshold: args.type_i_threshold.unwrap_or(defaults.type_i_threshold),
+        type_ii_threshold: args.type_ii_threshold.unwrap_or(defaults.type_ii_threshold),
+        leg_threshold: args.leg_threshold.unwrap_or(defaults.leg_threshold),
+    };
+    let result = match (&args.q, args.position) {
+        (Some(q), _) => solver.solve_fk(&q.0, &wrench, init.as_ref()),
+        (None, Some(p)) => solver.solve_ik(&pose_arg(p, args.rotvec)?, &wrench, init.as_ref()),
+        (None, None) => unreachable!("clap requires --q or --position"),
+    };
+    let sol = match result {
+        Ok(sol) => sol,
+        Err(e) => return report(&solver, Err(e), args.solve.format),
+    };
+    let start = std::time::Instant::now();
+    let a: Analysis = solver.analyze(&sol.state, &wrench, &settings)?;
+    let analysis_time_us = start.elapsed().as_secs_f64() * 1e6;
+    let plots = match &args.plot {
+        Some(dir) => tdpcr::analysis::plot::write_ellipsoid_plots(dir, &a.ellipsoids)?,
+        None => Vec::new(),
+    };
+    let out = AnalyzeOutput {
+        solution: ParallelOutput::new(&solver, &sol),
+        analysis_time_us,
+        j_fk: nested_rows(&a.j_fk),
+        j_ik: nested_rows(&a.j_ik),
+        compliance: nested_rows(&a.compliance),
+        lambda_fk: nested_rows(&a.lambda_fk),
+        lambda_ik: nested_rows(&a.lambda_ik),
+        lambda_c: nested_rows(&a.lambda_c),
+        rcond: RcondOutput {
+            raw: a.rcond,
+            scaled: a.rcond_scaled,
+        },
+        singularity: a.singularity,
+        thresholds: settings,
+        ellipsoids: a.ellipsoids.clone(),
+        min_tension: a.min_tension,
+        plots,
+    };
+    match args.solve.format {
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(&out).expect("plain data serializes")
+        ),
+        Format::Text => print_analysis(&out),
+    }
+    Ok(())
+}
+
+/// The human-readable form of `analyze`.
+fn print_analysis(out: &AnalyzeOutput) {
+    let sol = &out.solution;
+    sol.print_configuration();
+    let matrix = |title: &str, m: &[Vec<f64>]| {
+        println!("{title}");
+        for row in m {
+            let cells: Vec<String> = row.iter().map(|x| format!("{x:>11.4e}")).collect();
+            println!("  {}", cells.join(" "));
+        }
+    };
+    matrix("J_FK (rows dp [m], dtheta [rad]; columns q [m])", &out.j_fk);
+    matrix("J_IK (rows q [m]; columns dp [m], dtheta [rad])", &out.j_ik);
+    matrix(
+        "C (rows dp [m], dtheta [rad]; columns f [N], l [N m])",
+        &out.compliance,
+    );
+    println!("rcond          raw          scaled");
+    let (raw, scaled) = (&out.rcond.raw, &out.rcond.scaled);
+    for (name, a, b) in [
+        ("[B_x B_u]", raw.b_xu, scaled.b_xu),
+        ("[B_q B_u]", raw.b_qu, scaled.b_qu),
+        ("B_u", raw.b_u, scaled.b_u),
+        ("J_p", raw.j_p, scaled.j_p),
+        ("J_o", raw.j_o, scaled.j_o),
+        ("C_p", raw.c_p, scaled.c_p),
+        ("C_o", raw.c_o, scaled.c_o),
+    ] {
+        println!("  {name:<11} {a:>11.4e}  {b:>11.4e}");
+    }
+    let yes = |b: bool| if b { "yes" } else { "no" };
+    let s = &out.singularity;
+    let t = &out.thresholds;
+    println!(
+        "singular: type I {} (< {:.1e}), type II {} (< {:.1e}), leg {} (< {:.1e} or a slack pair)",
+        yes(s.type_i),
+        t.type_i_threshold,
+        yes(s.type_ii),
+        t.type_ii_threshold,
+        yes(s.leg),
+        t.leg_threshold
+    );
+    println!("ellipsoids (semi-axes along unit axes):");
+    let e = &out.ellipsoids;
+    for (name, unit, el) in [
+        ("J_p", "m/m", &e.j_p),
+        ("J_o", "rad/m", &e.j_o),
+        ("C_p", "m/N", &e.c_p),
+        ("C_o", "rad/(N m)", &e.c_o),
+    ] {
+        let axes: Vec<String> = (0..3)
+            .map(|k| {
+                let d = el.directions[k];
+                format!(
+                    "{:.4e} ({:+.3}, {:+.3}, {:+.3})",
+                    el.semi_axes[k], d[0], d[1], d[2]
+                )
+            })
+            .collect();
+        println!("  {name} [{unit}]: {}", axes.join(", "));
+    }
+    println!("min tendon tension [N]: {:.6}", out.min_tension);
+    for path in &out.plots {
+        println!("wrote {}", path.display());
+    }
+    println!(
+        "solved in {} iterations ({:.0} µs), residual norm {:.2e}; analysis {:.0} µs",
+        sol.iterations, sol.solve_time_us, sol.residual_norm, out.analysis_time_us
+    );
 }
 
 #[derive(Serialize)]
@@ -740,6 +1010,7 @@ fn main() -> ExitCode {
         Command::Tdcr(a) => run_tdcr(a),
         Command::Fk(a) => run_fk(a),
         Command::Ik(a) => run_ik(a),
+        Command::Analyze(a) => run_analyze(a),
         Command::Trajectory(a) => run_trajectory(a),
         Command::JacobianCheck(a) => run_jacobian_check(a),
         Command::Workspace(a) => run_workspace(a),

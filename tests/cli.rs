@@ -492,3 +492,203 @@ fn workspace_writes_points_summary_and_figures() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every number in a JSON value is finite (serde_json writes NaN as null).
+fn all_finite(v: &serde_json::Value) -> bool {
+    match v {
+        serde_json::Value::Null => false,
+        serde_json::Value::Number(n) => n.as_f64().is_some_and(f64::is_finite),
+        serde_json::Value::Array(a) => a.iter().all(all_finite),
+        serde_json::Value::Object(o) => o.values().all(all_finite),
+        _ => true,
+    }
+}
+
+#[test]
+fn analyze_json_has_the_documented_keys_no_nan_and_writes_plots() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-plots-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--position",
+        "0,0,0",
+        "--format",
+        "json",
+        "--plot",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for key in [
+        "j_fk",
+        "j_ik",
+        "compliance",
+        "rcond",
+        "singularity",
+        "ellipsoids",
+        "min_tension",
+        "lambda_fk",
+        "lambda_ik",
+        "lambda_c",
+        "thresholds",
+        "state",
+        "plots",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    let (plots, rest): (Vec<_>, Vec<_>) = v
+        .as_object()
+        .unwrap()
+        .iter()
+        .partition(|(k, _)| *k == "plots");
+    assert!(
+        rest.iter().all(|(_, x)| all_finite(x)),
+        "a NaN or null in {v}"
+    );
+    assert_eq!(v["j_fk"].as_array().unwrap().len(), 6);
+    assert_eq!(v["j_fk"][0].as_array().unwrap().len(), 6);
+    assert_eq!(v["compliance"].as_array().unwrap().len(), 6);
+    for kind in ["raw", "scaled"] {
+        for m in ["b_xu", "b_qu", "b_u", "j_p", "j_o", "c_p", "c_o"] {
+            assert!(v["rcond"][kind][m].as_f64().unwrap() > 0.0, "{kind}.{m}");
+        }
+    }
+    assert_eq!(v["singularity"]["type_ii"], serde_json::Value::Bool(false));
+    assert_eq!(
+        v["ellipsoids"]["c_p"]["semi_axes"]
+            .as_array()
+            .unwrap()
+            .len(),
+        3
+    );
+    assert_eq!(plots[0].1.as_array().unwrap().len(), 4);
+    for name in ["j_p", "j_o", "c_p", "c_o"] {
+        let svg = std::fs::read_to_string(dir.join(format!("{name}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg") && svg.contains("xz view"), "{name}");
+    }
+    // No temporary files left behind.
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 4);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn analyze_of_an_fk_solution_prints_text_and_reports_bad_input() {
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--q",
+        "0.004,0.02,-0.003,-0.01,0.002,0.03",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for part in [
+        "J_FK",
+        "rcond          raw          scaled",
+        "singular: type I",
+        "C_p [m/N]",
+    ] {
+        assert!(out.contains(part), "{out}");
+    }
+    let o = tdpcr(&["analyze", &design(), "--q", "0,0,0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("q = 3 values: expected 6 values"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--position",
+        "0,0,0",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--type-ii-threshold=-1",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("type_ii_threshold = -1: expected >= 0 and finite"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--position",
+        "0,0,0.6",
+        "--max-iterations",
+        "3",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
+}
+
+#[test]
+fn ik_limits_strict_keeps_the_9_dof_actuation_within_its_limits() {
+    let redundant = design_path("lilge2022_redundant.ron").display().to_string();
+    let o = tdpcr(&[
+        "ik",
+        &redundant,
+        "--position",
+        "0.01,0,0.02",
+        "--limits",
+        "strict",
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let q: Vec<f64> = v["q"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(q.len(), 9);
+    for (j, x) in q.iter().enumerate() {
+        let limit = if j % 3 == 2 { 0.1 } else { 0.01 };
+        assert!(x.abs() <= limit, "q[{j}] = {x}");
+    }
+    assert!(v["residual_norm"].as_f64().unwrap() <= 1e-10);
+    // A reference must fit the design and needs --limits strict.
+    let o = tdpcr(&[
+        "ik",
+        &redundant,
+        "--position",
+        "0,0,0",
+        "--limits",
+        "strict",
+        "--reference",
+        "0,0",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--reference = 2 values: expected 9 values"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&[
+        "ik",
+        &redundant,
+        "--position",
+        "0,0,0",
+        "--reference",
+        "0,0,0,0,0,0,0,0,0",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("only with --limits strict"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tdpcr(&["ik", &redundant, "--position", "0,0,0", "--limits", "loose"]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -183,3 +183,14 @@ fn bad_settings_are_all_reported_with_field_value_and_rule() {
         assert!(msg.contains(part), "missing '{part}' in: {msg}");
     }
 }
+
+#[test]
+fn a_design_that_breaks_its_rules_is_rejected_before_sweeping() {
+    let mut design = reference();
+    design.leg.disks.radius = -0.006;
+    let msg = sweep_workspace(&design, &coarse()).unwrap_err().to_string();
+    assert!(
+        msg.contains("leg.disks.radius = -0.006: expected > 0 m"),
+        "{msg}"
+    );
+}

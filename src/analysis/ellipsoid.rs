@@ -4,8 +4,8 @@
 //! the square roots of the eigenvalues and the eigenvectors of A Aᵀ (3 × 3).
 //!
 //! A is reduced to a 3 × 3 lower-triangular L with A = L Qᵀ (Gram–Schmidt on its rows,
-//! twice for orthogonality) and L is decomposed; A Aᵀ is never formed, so a thin
-//! ellipsoid keeps its small semi-axis to working precision.
+//! twice for orthogonality) and L is decomposed by one-sided Jacobi; A Aᵀ is never
+//! formed, so a thin ellipsoid keeps its small semi-axis to working precision.
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::Serialize;
@@ -44,14 +44,13 @@ impl Ellipsoid {
                 directions: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             };
         }
-        let svd = l.svd(true, false);
-        let u = svd.u.expect("requested");
+        let (sigma, u) = left_svd3(l);
         let mut order = [0usize, 1, 2];
-        order.sort_by(|&i, &j| svd.singular_values[j].total_cmp(&svd.singular_values[i]));
+        order.sort_by(|&i, &j| sigma[j].total_cmp(&sigma[i]));
         let mut semi_axes = [0.0; 3];
         let mut directions = [[0.0; 3]; 3];
         for (k, &i) in order.iter().enumerate() {
-            semi_axes[k] = svd.singular_values[i];
+            semi_axes[k] = sigma[i];
             let mut d: Vector3<f64> = u.column(i).into_owned();
             let big = d.iamax();
             if d[big] < 0.0 {
@@ -69,6 +68,44 @@ impl Ellipsoid {
     pub fn rcond(&self) -> f64 {
         ratio(self.semi_axes[2], self.semi_axes[0])
     }
+}
+
+/// Singular values and left singular vectors (columns) of a 3 × 3 matrix by one-sided
+/// Jacobi (Hestenes) on its transpose: Lᵀ V = W Σ gives L = V Σ Wᵀ. Each rotation
+/// orthogonalizes two columns of Lᵀ; the singular values come out with high relative
+/// accuracy (nalgebra's 3 × 3 SVD goes through the eigenvectors of LᵀL, which squares
+/// the condition number).
+fn left_svd3(l: &Matrix3<f64>) -> ([f64; 3], Matrix3<f64>) {
+    let mut b = l.transpose();
+    let mut v = Matrix3::identity();
+    for _sweep in 0..30 {
+        let mut rotated = false;
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            let alpha = b.column(p).norm_squared();
+            let beta = b.column(q).norm_squared();
+            let gamma = b.column(p).dot(&b.column(q));
+            if gamma == 0.0 || gamma.abs() <= f64::EPSILON * (alpha * beta).sqrt() {
+                continue;
+            }
+            rotated = true;
+            let zeta = (beta - alpha) / (2.0 * gamma);
+            let t = zeta.signum() / (zeta.abs() + (1.0 + zeta * zeta).sqrt());
+            let c = 1.0 / (1.0 + t * t).sqrt();
+            let s = c * t;
+            for m in [&mut b, &mut v] {
+                for r in 0..3 {
+                    let (x, y) = (m[(r, p)], m[(r, q)]);
+                    m[(r, p)] = c * x - s * y;
+                    m[(r, q)] = s * x + c * y;
+                }
+            }
+        }
+        if !rotated {
+            break;
+        }
+    }
+    let sigma = [0, 1, 2].map(|k| b.column(k).norm());
+    (sigma, v)
 }
 
 /// σ_min/σ_max, 0 when σ_max is 0 or either is not finite.
@@ -163,6 +200,21 @@ mod tests {
                 r.norm()
             );
         }
+    }
+
+    #[test]
+    fn a_thin_3_by_3_keeps_its_small_axis_to_relative_precision() {
+        // Singular values 1, 1e-3, 1e-7 (κ = 1e7: κ² would lose everything).
+        let q1 = nalgebra::Rotation3::new(Vector3::new(0.3, -0.2, 0.5));
+        let q2 = nalgebra::Rotation3::new(Vector3::new(-0.1, 0.4, 0.2));
+        let a = q1.matrix() * Matrix3::from_diagonal(&Vector3::new(1.0, 1e-3, 1e-7)) * q2.matrix();
+        let e = Ellipsoid::of_matrix3(&a);
+        for (s, expected) in e.semi_axes.iter().zip([1.0, 1e-3, 1e-7]) {
+            assert!((s - expected).abs() <= 1e-9 * expected, "{:?}", e.semi_axes);
+        }
+        let d = Vector3::from(e.directions[2]);
+        let col = q1.matrix().column(2).into_owned();
+        assert!((d.dot(&col).abs() - 1.0).abs() < 1e-9);
     }
 
     #[test]

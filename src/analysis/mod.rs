@@ -30,6 +30,7 @@
 
 pub mod ellipsoid;
 mod lanczos;
+pub mod plot;
 mod qr;
 pub mod rcond;
 pub mod scaling;

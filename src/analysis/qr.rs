@@ -29,8 +29,8 @@ pub(crate) struct LegQr {
     pub ny: usize,
 }
 
-/// A triangular n × n matrix stored column-major with leading dimension `ld` (a view
-/// into a [`LegQr`]).
+/// An upper-triangular n × n matrix stored column-major with leading dimension `ld` (a
+/// view into a [`LegQr`]).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Triangle<'a> {
     /// Column-major entries; column j starts at j·ld.
@@ -240,10 +240,11 @@ pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool
     }
     let m = qr.w.nrows();
     let (left, right) = qr.w.as_mut_slice().split_at_mut(b.start * m);
+    let inv: Vec<f64> = (0..n).map(|j| 1.0 / left[j * m + j]).collect();
     for x in right[..b.len() * m].chunks_exact_mut(m) {
         for j in (0..n).rev() {
             let column = &left[j * m..j * m + j + 1];
-            let xj = x[j] / column[j];
+            let xj = x[j] * inv[j];
             x[j] = xj;
             if xj != 0.0 {
                 for (xi, rij) in x[..j].iter_mut().zip(&column[..j]) {

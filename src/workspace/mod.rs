@@ -22,7 +22,10 @@
 //!    nearest to the cell centre, then the first in (ray, step) order. So a count of
 //!    cells times Δ³ is a volume. Rays are denser than the grid near the plane origin and
 //!    sparser beyond the radius Δ/φ (86 mm at the paper's settings), where cells between
-//!    two rays can be missed: the volume is then a slight underestimate.
+//!    two rays can be missed: the volume is then an underestimate. Keep φ ≤ Δ/R for a
+//!    workspace of radius R (about 0.1 m for the reference design): measured on it,
+//!    Δ = 10 mm gives 2.39 L with φ = 0.1 but 1.98 L with φ = 0.2 and 1.43 L with
+//!    φ = 0.35 (Δ = 3 mm, φ = 0.035: 2.47 L).
 //! 4. Every represented point gets the measures of [`metrics::point_metrics`] (rcond,
 //!    singularity flags, minimum tension).
 //!
@@ -83,7 +86,8 @@ pub struct WorkspaceSettings {
     pub rotvec: [f64; 3],
     /// Grid step Δ along rays and between planes \[m\].
     pub step: f64,
-    /// Angle φ between rays \[rad\].
+    /// Angle φ between rays \[rad\]; keep φ ≤ Δ / (workspace radius), see the module
+    /// documentation.
     pub angle_step: f64,
     /// Lowest and highest plane z \[m\] (planes at multiples of Δ within the range).
     pub z_range: [f64; 2],
@@ -96,7 +100,9 @@ pub struct WorkspaceSettings {
     /// Newton iterations allowed per step. A warm step of Δ = 3 mm needs 2–4, but steps
     /// across a leg-singularity line (a leg's tendon pair switching, paper Fig. 9) can need
     /// 20–50, and a smaller budget ends rays there (measured on the plane z = 0 of the
-    /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60).
+    /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60). A step
+    /// first gets 15 iterations and the rest only if those reduced ‖b‖ tenfold (a step past
+    /// a fold, where no solution exists, makes no such progress).
     pub max_iterations: usize,
 }
 
@@ -429,8 +435,9 @@ pub struct Progress {
 /// Sweeps the workspace of `design` (see the module documentation).
 ///
 /// # Errors
-/// [`Error::Input`] for bad settings; [`Error::Solve`] if the home configuration (the
-/// platform at the origin with R_ee) cannot be solved.
+/// [`Error::Design`] for a design that breaks its rules; [`Error::Input`] for bad
+/// settings; [`Error::Solve`] if the home configuration (the platform at the origin with
+/// R_ee) cannot be solved.
 ///
 /// # Example
 /// ```no_run
@@ -458,6 +465,7 @@ pub fn sweep_workspace_with_progress(
     settings: &WorkspaceSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<WorkspaceMap, Error> {
+    design.validate("design")?;
     settings.validate()?;
     let start = Instant::now();
     let worker = Worker::new(design, settings);
@@ -471,54 +479,38 @@ pub fn sweep_workspace_with_progress(
         rays_done: 0,
         rays_total,
     });
+    let on_ray_done = || {
+        let done = rays_done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress(Progress {
+            rays_done: done,
+            rays_total,
+        });
+    };
+    // Planes in parallel and, inside each, rays and cells in parallel: a thread that waits
+    // for the last ray of a plane takes work from another plane.
+    let sweeps: Vec<Result<PlaneSweep, Error>> = planes
+        .origins
+        .par_iter()
+        .map(|(k, origin)| {
+            let job = PlaneJob {
+                worker: &worker,
+                model: &model,
+                settings,
+                work: &work,
+                on_ray_done: &on_ray_done,
+            };
+            job.sweep(*k, origin, n_rays)
+        })
+        .collect();
     let mut points = Vec::new();
     let mut ray_ends = RayEnds::default();
-    for (k, origin) in &planes.origins {
-        let rays: Vec<Ray> = (0..n_rays)
-            .into_par_iter()
-            .map_init(
-                || worker.clone(),
-                |w, j| {
-                    let ray = w.follow_ray(&model, settings, origin, j, &work);
-                    let done = rays_done.fetch_add(1, Ordering::Relaxed) + 1;
-                    progress(Progress {
-                        rays_done: done,
-                        rays_total,
-                    });
-                    ray
-                },
-            )
-            .collect();
-        for r in &rays {
-            match r.end {
-                End::NotConverged => ray_ends.not_converged += 1,
-                End::Limits => ray_ends.actuation_limits += 1,
-                End::Collision => ray_ends.collision += 1,
-                End::MaxRadius => ray_ends.max_radius += 1,
-            }
-        }
-        let reps = representatives(settings.step, origin, &rays);
-        let measured: Vec<Result<WorkspacePoint, Error>> = reps
-            .par_iter()
-            .map_init(
-                || worker.clone(),
-                |w, rep| {
-                    let metrics =
-                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
-                    Ok(WorkspacePoint {
-                        cell: [rep.cell.1, rep.cell.0, *k],
-                        position: rep.sample.state.position,
-                        tensions: tensions(&model, &rep.sample.state),
-                        state: rep.sample.state.clone(),
-                        collision: rep.sample.collision,
-                        metrics,
-                    })
-                },
-            )
-            .collect();
-        for m in measured {
-            points.push(m?);
-        }
+    for sweep in sweeps {
+        let sweep = sweep?;
+        points.extend(sweep.points);
+        ray_ends.not_converged += sweep.ray_ends.not_converged;
+        ray_ends.actuation_limits += sweep.ray_ends.actuation_limits;
+        ray_ends.collision += sweep.ray_ends.collision;
+        ray_ends.max_radius += sweep.ray_ends.max_radius;
     }
     let wall = start.elapsed().as_secs_f64();
     let summary = summarize(settings, &planes, n_rays, &points, ray_ends, &work, wall);
@@ -529,6 +521,69 @@ pub fn sweep_workspace_with_progress(
         points,
         summary,
     })
+}
+
+/// The cells of one plane and why its rays ended.
+struct PlaneSweep {
+    points: Vec<WorkspacePoint>,
+    ray_ends: RayEnds,
+}
+
+/// What sweeping a plane needs.
+struct PlaneJob<'a> {
+    worker: &'a Worker,
+    model: &'a Model,
+    settings: &'a WorkspaceSettings,
+    work: &'a Work,
+    on_ray_done: &'a (dyn Fn() + Sync),
+}
+
+impl PlaneJob<'_> {
+    /// The rays of plane k from its origin (in parallel), the cell representatives, and
+    /// their measures (in parallel).
+    fn sweep(&self, k: i64, origin: &Sample, n_rays: usize) -> Result<PlaneSweep, Error> {
+        let (model, settings) = (self.model, self.settings);
+        let rays: Vec<Ray> = (0..n_rays)
+            .into_par_iter()
+            .map_init(
+                || self.worker.clone(),
+                |w, j| {
+                    let ray = w.follow_ray(model, settings, origin, j, self.work);
+                    (self.on_ray_done)();
+                    ray
+                },
+            )
+            .collect();
+        let mut ray_ends = RayEnds::default();
+        for r in &rays {
+            match r.end {
+                End::NotConverged => ray_ends.not_converged += 1,
+                End::Limits => ray_ends.actuation_limits += 1,
+                End::Collision => ray_ends.collision += 1,
+                End::MaxRadius => ray_ends.max_radius += 1,
+            }
+        }
+        let reps = representatives(settings.step, origin, &rays);
+        let points = reps
+            .par_iter()
+            .map_init(
+                || self.worker.clone(),
+                |w, rep| {
+                    let metrics =
+                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
+                    Ok(WorkspacePoint {
+                        cell: [rep.cell.1, rep.cell.0, k],
+                        position: rep.sample.state.position,
+                        tensions: tensions(model, &rep.sample.state),
+                        state: rep.sample.state.clone(),
+                        collision: rep.sample.collision,
+                        metrics,
+                    })
+                },
+            )
+            .collect::<Result<Vec<_>, Error>>()?;
+        Ok(PlaneSweep { points, ray_ends })
+    }
 }
 
 /// Tendon tensions \[N\] of a state, legs concatenated.
@@ -630,10 +685,20 @@ impl Worker {
         let zero = Wrench::default();
         let last = history[history.len() - 1];
         let predicted = predict(model, history);
-        let result = self
-            .solver
-            .solve_ik_newton(&pose, &zero, predicted.as_ref().unwrap_or(last));
+        let guess = predicted.as_ref().unwrap_or(last);
+        // A probe run first; the full budget only if the probe made progress.
+        let full = self.solver.settings.max_iterations;
+        self.solver.settings.max_iterations = full.min(PROBE_ITERATIONS);
+        let mut result = self.solver.solve_ik_newton(&pose, &zero, guess);
+        self.solver.settings.max_iterations = full;
         work.solves.fetch_add(1, Ordering::Relaxed);
+        if result.is_err() && full > PROBE_ITERATIONS {
+            let h = self.solver.residual_history();
+            if h.len() > 1 && h[0] >= PROBE_PROGRESS * h[h.len() - 1] {
+                result = self.solver.solve_ik_newton(&pose, &zero, guess);
+                work.solves.fetch_add(1, Ordering::Relaxed);
+            }
+        }
         let sol = result.map_err(|_| End::NotConverged)?;
         work.add(&sol.report);
         self.classify(model, sol.state)
@@ -682,6 +747,16 @@ impl Worker {
         }
     }
 }
+
+/// Newton iterations of a step's probe run. A step that fails within them is run again
+/// with the full [`WorkspaceSettings::max_iterations`] only if the probe reduced ‖b‖ by
+/// [`PROBE_PROGRESS`]: steps beyond a fold of the IK (no solution) crawl at their first
+/// residual, while the slow steps across a leg-singularity line make progress first.
+/// Measured on the plane z = 0 at Δ = 3 mm: the same 1581 cells, 14 % fewer instructions
+/// (φ = 0.1: 8.8 G against 10.2 G).
+const PROBE_ITERATIONS: usize = 15;
+/// See [`PROBE_ITERATIONS`].
+const PROBE_PROGRESS: f64 = 10.0;
 
 /// Solutions used by the predictor of a path step: the last three give a quadratic
 /// extrapolation.
