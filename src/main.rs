@@ -51,17 +51,17 @@ enum Command {
 struct WorkspaceArgs {
     /// Design file (RON, `Tdpcr(...)`), e.g. designs/lilge2022.ron.
     design: PathBuf,
-    /// Platform orientation R_ee as a rotation vector RX,RY,RZ (axis × angle) \[rad\], world
+    /// Platform orientation R_ee as a rotation vector RX,RY,RZ (axis × angle) [rad], world
     /// frame (default: identity).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     rotvec: Option<Vector3<f64>>,
-    /// Grid step Δ along rays and between xy-planes \[m\].
+    /// Grid step Δ along rays and between xy-planes [m].
     #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_STEP, allow_hyphen_values = true)]
     step: f64,
-    /// Angle φ between rays \[rad\].
+    /// Angle φ between rays [rad].
     #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_ANGLE_STEP, allow_hyphen_values = true)]
     angle_step: f64,
-    /// Lowest and highest plane ZMIN,ZMAX \[m\] (default -0.12,0.12: covers the reference
+    /// Lowest and highest plane ZMIN,ZMAX [m] (default -0.12,0.12: covers the reference
     /// design's workspace at R_ee = I).
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     z_range: Option<Values>,
@@ -81,10 +81,10 @@ struct WorkspaceArgs {
 struct TrajectoryArgs {
     /// Design file (RON, `Tdpcr(...)`).
     design: PathBuf,
-    /// CSV of poses, columns x,y,z,rx,ry,rz \[m, rad\] (IK; 6-DoF design).
+    /// CSV of poses, columns x,y,z,rx,ry,rz [m, rad] (IK; 6-DoF design).
     #[arg(long, conflicts_with = "fk", required_unless_present = "fk")]
     ik: Option<PathBuf>,
-    /// CSV of actuations, columns q1..qn \[m\] (FK).
+    /// CSV of actuations, columns q1..qn [m] (FK).
     #[arg(long)]
     fk: Option<PathBuf>,
     #[command(flatten)]
@@ -146,7 +146,7 @@ impl NewtonArgs {
 /// Options shared by `fk` and `ik`.
 #[derive(clap::Args)]
 struct SolveArgs {
-    /// Extra wrench FX,FY,FZ,MX,MY,MZ \[N, N·m\] on the platform centre, world frame, added
+    /// Extra wrench FX,FY,FZ,MX,MY,MZ [N, N·m] on the platform centre, world frame, added
     /// to the platform's weight.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     wrench: Option<Values>,
@@ -167,7 +167,7 @@ struct SolveArgs {
 struct FkArgs {
     /// Design file (RON, `Tdpcr(...)`), e.g. designs/lilge2022.ron.
     design: PathBuf,
-    /// Actuation q \[m\]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
+    /// Actuation q [m]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     q: Values,
     #[command(flatten)]
@@ -178,10 +178,10 @@ struct FkArgs {
 struct IkArgs {
     /// Design file (RON, `Tdpcr(...)`).
     design: PathBuf,
-    /// Platform position X,Y,Z \[m\], world frame.
+    /// Platform position X,Y,Z [m], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     position: Vector3<f64>,
-    /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) \[rad\], world frame.
+    /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) [rad], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     rotvec: Option<Vector3<f64>>,
     #[command(flatten)]
@@ -207,7 +207,7 @@ struct RedundancyArgs {
     /// enforced) or `strict` (QP steps within the design's actuation_limits).
     #[arg(long, value_enum, default_value_t)]
     limits: LimitsArg,
-    /// With --limits strict: stay close to this actuation Q1,...,Q9 \[m\] instead of
+    /// With --limits strict: stay close to this actuation Q1,...,Q9 [m] instead of
     /// changing q least.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     reference: Option<Values>,
@@ -251,13 +251,13 @@ impl RedundancyArgs {
 struct AnalyzeArgs {
     /// Design file (RON, `Tdpcr(...)`).
     design: PathBuf,
-    /// Analyse the FK solution of this actuation Q1,...,Qn \[m\].
+    /// Analyse the FK solution of this actuation Q1,...,Qn [m].
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true, conflicts_with = "position", required_unless_present = "position")]
     q: Option<Values>,
-    /// Analyse the IK solution of this platform position X,Y,Z \[m\], world frame.
+    /// Analyse the IK solution of this platform position X,Y,Z [m], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     position: Option<Vector3<f64>>,
-    /// With --position: platform orientation as a rotation vector RX,RY,RZ \[rad\].
+    /// With --position: platform orientation as a rotation vector RX,RY,RZ [rad].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "position")]
     rotvec: Option<Vector3<f64>>,
     /// Write the ellipsoids' xy and xz views as SVG files into this directory.
@@ -291,16 +291,16 @@ enum Format {
 struct TdcrArgs {
     /// Robot file (RON, `Tdcr(...)`), e.g. designs/tdcr_one_segment.ron.
     robot: PathBuf,
-    /// Tendon tensions \[N\], one per tendon in file order, comma-separated.
+    /// Tendon tensions [N], one per tendon in file order, comma-separated.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true, conflicts_with = "displacements", required_unless_present = "displacements")]
     tensions: Option<Values>,
-    /// Tendon length changes Δℓ \[m\] (negative = pulled), one per tendon, comma-separated.
+    /// Tendon length changes Δℓ [m] (negative = pulled), one per tendon, comma-separated.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     displacements: Option<Values>,
-    /// Tip force FX,FY,FZ \[N\], world frame.
+    /// Tip force FX,FY,FZ [N], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_force: Option<Vector3<f64>>,
-    /// Tip moment MX,MY,MZ \[N·m\], world frame.
+    /// Tip moment MX,MY,MZ [N·m], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     tip_moment: Option<Vector3<f64>>,
     #[command(flatten)]
@@ -427,6 +427,8 @@ struct ParallelOutput {
     tensions: Vec<Vec<f64>>,
     iterations: usize,
     residual_evaluations: usize,
+    /// Exact Jacobians evaluated (fewer than `iterations` when chord steps reuse one).
+    jacobian_evaluations: usize,
     residual_norm: f64,
     solve_time_us: f64,
     state: RobotState,
@@ -460,6 +462,7 @@ impl ParallelOutput {
             tensions: sol.tensions(solver.model()),
             iterations: sol.report.iterations,
             residual_evaluations: sol.report.residual_evaluations,
+            jacobian_evaluations: sol.report.jacobian_evaluations,
             residual_norm: sol.report.residual_norm,
             solve_time_us: sol.solve_time_us,
             state: sol.state.clone(),

@@ -201,6 +201,8 @@ fn fk_json_has_the_documented_keys_and_its_state_warm_starts() {
     }
     assert_eq!(v["converged"], serde_json::Value::Bool(true));
     assert_eq!(v["tensions"].as_array().unwrap().len(), 3);
+    let jacobians = v["jacobian_evaluations"].as_u64().unwrap();
+    assert!(jacobians >= 1 && jacobians <= v["residual_evaluations"].as_u64().unwrap());
     let dir = std::env::temp_dir().join(format!("tdpcr-cli-fk-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("state.json");
