@@ -354,12 +354,7 @@ impl Solver {
         let mut kkt = DMatrix::zeros(n, n);
         let mut rhs = DVector::zeros(n);
         let mut lu = DenseLu::new(n);
-        let mut report = NewtonReport {
-            iterations: 0,
-            residual_evaluations: 0,
-            jacobian_evaluations: 0,
-            residual_norm: f64::NAN,
-        };
+        let mut report = NewtonReport::none();
         loop {
             let p = BoundaryPoint {
                 pose,
@@ -495,9 +490,7 @@ impl Solver {
         };
         if let Some((home, r)) = home {
             if let Ok((state, mut report)) = self.ramp_actuation(home, q, wrench) {
-                report.iterations += r.iterations;
-                report.residual_evaluations += r.residual_evaluations;
-                report.jacobian_evaluations += r.jacobian_evaluations;
+                report.add_work(&r);
                 return Ok((state, report));
             }
         }
@@ -566,12 +559,7 @@ impl Solver {
             },
         };
         let mut state = start;
-        let mut total = NewtonReport {
-            iterations: 0,
-            residual_evaluations: 0,
-            jacobian_evaluations: 0,
-            residual_norm: f64::NAN,
-        };
+        let mut total = NewtonReport::none();
         let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
         while lambda < 1.0 {
             let next = (lambda + step).min(1.0);
@@ -595,9 +583,7 @@ impl Solver {
             };
             match self.solve_target(scaled.as_ref(), &settings, &target(next), &w, state.clone()) {
                 Ok((s, r)) => {
-                    total.iterations += r.iterations;
-                    total.residual_evaluations += r.residual_evaluations;
-                    total.jacobian_evaluations += r.jacobian_evaluations;
+                    total.add_work(&r);
                     total.residual_norm = r.residual_norm;
                     state = s;
                     lambda = next;

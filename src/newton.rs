@@ -88,7 +88,8 @@ impl Default for NewtonSettings {
 /// Work done by one solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonReport {
-    /// Newton iterations: accepted steps, each followed by one Jacobian evaluation.
+    /// Newton iterations: accepted steps (a chord step reuses the last Jacobian, so there
+    /// can be fewer Jacobian evaluations than iterations).
     pub iterations: usize,
     /// Residual evaluations, including those of rejected trial steps (each Jacobian
     /// evaluation also evaluates the residual and is counted here).
@@ -97,6 +98,26 @@ pub struct NewtonReport {
     pub jacobian_evaluations: usize,
     /// Final ‖F(x)‖₂ (SI).
     pub residual_norm: f64,
+}
+
+impl NewtonReport {
+    /// No work done yet; the residual norm is NaN until the first evaluation.
+    pub(crate) fn none() -> Self {
+        Self {
+            iterations: 0,
+            residual_evaluations: 0,
+            jacobian_evaluations: 0,
+            residual_norm: f64::NAN,
+        }
+    }
+
+    /// Adds the counts of `other` (a run that preceded or continued this one); the
+    /// residual norm stays this report's.
+    pub(crate) fn add_work(&mut self, other: &NewtonReport) {
+        self.iterations += other.iterations;
+        self.residual_evaluations += other.residual_evaluations;
+        self.jacobian_evaluations += other.jacobian_evaluations;
+    }
 }
 
 /// Buffers for [`solve`] on systems of one size.

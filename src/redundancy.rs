@@ -169,12 +169,7 @@ impl Iteration<'_> {
         let mut weights = DVector::zeros(m);
         row_weights(model, &mut weights);
         let mut r = DVector::zeros(m);
-        let mut report = NewtonReport {
-            iterations: 0,
-            residual_evaluations: 0,
-            jacobian_evaluations: 0,
-            residual_norm: f64::NAN,
-        };
+        let mut report = NewtonReport::none();
         let not_converged = |report: &NewtonReport, reason| SolveError::NotConverged {
             iterations: report.iterations,
             residual_norm: report.residual_norm,
