@@ -1008,6 +1008,7 @@ fn run_validate(args: &ValidateArgs) -> Result<(), Error> {
 }
 
 fn main() -> ExitCode {
+    tdpcr::output::end_quietly_on_broken_pipe();
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Tdcr(a) => run_tdcr(a),

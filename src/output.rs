@@ -1,5 +1,6 @@
 //! Output files written atomically: a temporary file in the same directory, then a rename
-//! (atomic on POSIX file systems), so an interrupted run leaves the complete file or none.
+//! (atomic on POSIX file systems), so an interrupted run leaves the complete file or none;
+//! and a command-line program's standard output that may be cut short by its reader.
 
 use std::fs;
 use std::io::{self, Write};
@@ -49,5 +50,19 @@ mod tests {
         assert!(write_atomically(&dir.join("missing").join("b.txt"), b"x").is_err());
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
         fs::remove_dir_all(&dir).ok();
+    }
+}
+
+/// Lets a command-line program end quietly, like other Unix tools, when the reader of its
+/// standard output goes away (`tdpcr fk ... | head`), instead of panicking in `println!`:
+/// restores the default action of SIGPIPE, which the Rust runtime sets to "ignore". Files
+/// are not affected (they are written atomically). Call it first thing in `main`; a no-op
+/// on platforms without SIGPIPE.
+pub fn end_quietly_on_broken_pipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with SIG_DFL only resets a process-wide disposition; nothing else in
+    // the process installs a SIGPIPE handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

@@ -694,3 +694,35 @@ fn ik_limits_strict_keeps_the_9_dof_actuation_within_its_limits() {
     let o = tdpcr(&["ik", &redundant, "--position", "0,0,0", "--limits", "loose"]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `tdpcr ... | head`: when the reader of stdout goes away, the program ends (killed by
+/// SIGPIPE, like other Unix tools) instead of panicking in `println!`.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_the_program_without_a_panic() {
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tdpcr"))
+        .args([
+            "analyze",
+            &design(),
+            "--q",
+            "0,0,0,0,0,0",
+            "--format",
+            "json",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("binary runs");
+    // Close the read end before the solve finishes and the JSON is printed.
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert!(
+        o.status.success() || o.status.signal() == Some(13),
+        "{:?}: {}",
+        o.status,
+        stderr(&o)
+    );
+}
