@@ -29,6 +29,20 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
     result
 }
 
+/// Lets a command-line program end quietly, like other Unix tools, when the reader of its
+/// standard output goes away (`tdpcr fk ... | head`), instead of panicking in `println!`:
+/// restores the default action of SIGPIPE, which the Rust runtime sets to "ignore". Files
+/// are not affected (they are written atomically). Call it first thing in `main`; a no-op
+/// on platforms without SIGPIPE.
+pub fn end_quietly_on_broken_pipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with SIG_DFL only resets a process-wide disposition; nothing else in
+    // the process installs a SIGPIPE handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,19 +64,5 @@ mod tests {
         assert!(write_atomically(&dir.join("missing").join("b.txt"), b"x").is_err());
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
         fs::remove_dir_all(&dir).ok();
-    }
-}
-
-/// Lets a command-line program end quietly, like other Unix tools, when the reader of its
-/// standard output goes away (`tdpcr fk ... | head`), instead of panicking in `println!`:
-/// restores the default action of SIGPIPE, which the Rust runtime sets to "ignore". Files
-/// are not affected (they are written atomically). Call it first thing in `main`; a no-op
-/// on platforms without SIGPIPE.
-pub fn end_quietly_on_broken_pipe() {
-    #[cfg(unix)]
-    // SAFETY: `signal` with SIG_DFL only resets a process-wide disposition; nothing else in
-    // the process installs a SIGPIPE handler.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
