@@ -478,11 +478,7 @@ impl Triangles {
             (Some(q), rc)
         } else {
             // Wide [B_u B_q] (n × (n + 3)): its σ are those of the tall transpose.
-            let mut wide = DMatrix::zeros(n, ny + nq);
-            wide.columns_mut(0, ny).copy_from(&legs.w.columns(0, ny));
-            wide.columns_mut(ny, nq)
-                .copy_from(&legs.w.columns(qc.start, nq));
-            let r_t = wide.transpose().qr().r();
+            let r_t = qr::wide_triangle(&legs, qc.clone());
             let tri = qr::Triangle {
                 data: r_t.as_slice(),
                 n,

@@ -256,6 +256,85 @@ pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool
     true
 }
 
+/// An upper triangle R (n × n, column-major) with RᵀR = P M Mᵀ P (P reverses the order of
+/// the n rows of M), so σ(R) = σ(M), for the
+/// wide M = Qᵀ\[B_u B_q\] = \[\[R_u; 0\] C\] (n × (n_y + n_q), n_y = n − 6, n_q > 6) of
+/// the 9-DoF design, taken from `qr.w` (R_u) and its columns `c` (C).
+///
+/// Householder QR of Mᵀ with its rows and columns reversed: R_uᵀ then becomes a staircase
+/// that is upper triangular from column 6 on, so only the n_q dense rows of Cᵀ need
+/// eliminating: reflectors over n_q − k of them for the first 6 columns, and over one
+/// staircase row plus the n_q − 6 remaining dense rows after that (a dense QR of Mᵀ costs
+/// about five times as much).
+pub(crate) fn wide_triangle(qr: &LegQr, c: Range<usize>) -> DMatrix<f64> {
+    let (n, ny, nq) = (qr.w.nrows(), qr.ny, c.len());
+    debug_assert!(nq > PLATFORM && n == ny + PLATFORM);
+    let w = &qr.w;
+    // Rows of the reflectors, each of length n, row-major: the staircase row of the
+    // current column (row 0) and the dense rows of Cᵀ (rows 1..=n_q). Reversed column j'
+    // of Mᵀ is row n − 1 − j' of M.
+    let mut rows = vec![0.0; (1 + nq) * n];
+    for t in 0..nq {
+        let col = w.column(c.start + t);
+        for (j, e) in rows[(1 + t) * n..(2 + t) * n].iter_mut().enumerate() {
+            *e = col[n - 1 - j];
+        }
+    }
+    let mut r = DMatrix::zeros(n, n);
+    let mut v = vec![0.0; 1 + nq];
+    let mut sums = vec![0.0; n];
+    let mut active = Vec::with_capacity(1 + nq);
+    for k in 0..n {
+        // The reflector's rows: the staircase row from k = 6 (the pivot), and the dense
+        // rows not yet used as pivots (rows 1 + min(k, 6) ..= n_q).
+        active.clear();
+        if k >= PLATFORM {
+            // Row i' = k − 6 of the reversed R_uᵀ: column j' ≥ k holds R_u[n − 1 − j', i]
+            // with i = n_y − 1 − i'.
+            let col = w.column(ny - 1 - (k - PLATFORM));
+            rows[..k].fill(0.0);
+            for (j, e) in rows[k..n].iter_mut().enumerate() {
+                *e = col[n - 1 - (k + j)];
+            }
+            active.push(0);
+        }
+        active.extend(1 + k.min(PLATFORM)..=nq);
+        let first = active[0];
+        for &row in &active {
+            v[row] = rows[row * n + k];
+        }
+        let norm = active
+            .iter()
+            .map(|&row| v[row] * v[row])
+            .sum::<f64>()
+            .sqrt();
+        if norm > 0.0 {
+            let alpha = if v[first] > 0.0 { -norm } else { norm };
+            v[first] -= alpha;
+            let vv: f64 = active.iter().map(|&row| v[row] * v[row]).sum();
+            let beta = 2.0 / vv;
+            sums[k..].fill(0.0);
+            for &row in &active {
+                let (vr, src) = (v[row], &rows[row * n + k..(row + 1) * n]);
+                for (s, x) in sums[k..].iter_mut().zip(src) {
+                    *s += vr * x;
+                }
+            }
+            for &row in &active {
+                let f = beta * v[row];
+                for (x, s) in rows[row * n + k..(row + 1) * n].iter_mut().zip(&sums[k..]) {
+                    *x -= f * s;
+                }
+            }
+        }
+        // The pivot row becomes row k of R.
+        for j in k..n {
+            r[(k, j)] = rows[first * n + j];
+        }
+    }
+    r
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,6 +383,37 @@ mod tests {
             assert!(err < 1e-12, "nu = {nu}: |RᵀR − MᵀM| = {err:.2e}");
             // Strictly lower part is zero.
             assert!((0..n).all(|j| (j + 1..n).all(|i| qr.w[(i, j)] == 0.0)));
+        }
+    }
+
+    #[test]
+    fn the_wide_triangle_reproduces_m_m_transpose() {
+        // The 9-DoF shape: n_u = 10, n_q = 9 columns of C.
+        let nu = 10;
+        let b_u = structured(nu);
+        let n = b_u.nrows();
+        let c = DMatrix::from_fn(n, 9, |i, j| noise(i, j, 5));
+        let qr = LegQr::new(&[&b_u, &c], nu, None);
+        let ny = 3 * nu;
+        let r = wide_triangle(&qr, ny..ny + 9);
+        // RᵀR = P M Mᵀ P for M = Qᵀ[B_u C] (n × (n_y + 9)), P the reversal; R upper
+        // triangular.
+        let m = DMatrix::from_fn(n, ny + 9, |i, j| qr.w[(n - 1 - i, j)]);
+        let err = (r.transpose() * &r - &m * m.transpose()).abs().max();
+        assert!(err < 1e-12, "|RᵀR − P M Mᵀ P| = {err:.2e}");
+        assert!((0..n).all(|j| (j + 1..n).all(|i| r[(i, j)] == 0.0)));
+        // Same singular values as [B_u C] itself.
+        let mut full = DMatrix::zeros(n, ny + 9);
+        full.columns_mut(0, ny).copy_from(&b_u);
+        full.columns_mut(ny, 9).copy_from(&c);
+        let (mut a, mut b) = (
+            r.singular_values().as_slice().to_vec(),
+            full.singular_values().as_slice().to_vec(),
+        );
+        a.sort_by(f64::total_cmp);
+        b.sort_by(f64::total_cmp);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-12 * b[b.len() - 1], "{x} vs {y}");
         }
     }
 
