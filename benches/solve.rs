@@ -8,14 +8,13 @@ use criterion::{BatchSize, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector, Vector3};
 use tdpcr::Tdpcr;
 use tdpcr::boundary::{
-    BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
     boundary_derivatives_fd, boundary_residual,
 };
 use tdpcr::kinetostatics::{RobotState, Solver};
 use tdpcr::linalg::DenseLu;
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
-use tdpcr::rod::tendon::TendonUnknown;
 use tdpcr::sampling::{fk_motion_sequence, ik_motion_sequence, seeded_reachable_actuations};
 use tdpcr::trajectory::{Targets, run_trajectory};
 
@@ -44,13 +43,7 @@ fn bench_jacobians(c: &mut Criterion) {
         let state = solved_state(&mut solver, &q);
         let pose: Pose = state.pose();
         let wrench = solver.total_wrench(&Wrench::default());
-        let p = BoundaryPoint {
-            pose: &pose,
-            q: &state.q,
-            wrench: &wrench,
-            y_u: &state.y_u,
-            tendon_unknown: TendonUnknown::Gamma,
-        };
+        let p = state.boundary_point(&pose, &wrench);
         let mut sc = BoundaryScratch::new(&model);
         let mut jac = BoundaryJacobians::new(&model);
         let mut r = DVector::zeros(model.n_residuals());

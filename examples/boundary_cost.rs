@@ -4,13 +4,12 @@
 use nalgebra::DVector;
 use tdpcr::Tdpcr;
 use tdpcr::boundary::{
-    BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
     boundary_derivatives_fd, boundary_residual,
 };
 use tdpcr::kinetostatics::Solver;
 use tdpcr::model::Model;
 use tdpcr::rod::Wrench;
-use tdpcr::rod::tendon::TendonUnknown;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -27,13 +26,7 @@ fn main() {
     let state = solver.solve_fk(&q, &Wrench::default(), None).unwrap().state;
     let pose = state.pose();
     let wrench = solver.total_wrench(&Wrench::default());
-    let p = BoundaryPoint {
-        pose: &pose,
-        q: &state.q,
-        wrench: &wrench,
-        y_u: &state.y_u,
-        tendon_unknown: TendonUnknown::Gamma,
-    };
+    let p = state.boundary_point(&pose, &wrench);
     let mut sc = BoundaryScratch::new(&model);
     let mut jac = BoundaryJacobians::new(&model);
     let mut r = DVector::zeros(model.n_residuals());

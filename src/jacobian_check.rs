@@ -7,12 +7,11 @@ use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use crate::boundary::{
-    BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
     boundary_derivatives_fd,
 };
 use crate::kinetostatics::Solver;
 use crate::rod::Wrench;
-use crate::rod::tendon::TendonUnknown;
 use crate::sampling::seeded_actuations;
 
 /// Largest relative error per block: max|exact − FD| / max|FD| over the block.
@@ -77,13 +76,7 @@ pub fn jacobian_check(solver: &mut Solver, samples: usize, seed: u64) -> Jacobia
             continue;
         };
         let pose = sol.state.pose();
-        let p = BoundaryPoint {
-            pose: &pose,
-            q: &sol.state.q,
-            wrench: &wrench,
-            y_u: &sol.state.y_u,
-            tendon_unknown: TendonUnknown::Gamma,
-        };
+        let p = sol.state.boundary_point(&pose, &wrench);
         let start = Instant::now();
         if boundary_derivatives(&model, &mut sc, &p, &mut r, &mut exact).is_err() {
             continue;

@@ -69,6 +69,32 @@ impl RobotState {
             rotation: *Rotation3::new(Vector3::from(self.rotvec)).matrix(),
         }
     }
+
+    /// The boundary conditions' evaluation point of this state at its pose `pose`
+    /// (from [`RobotState::pose`]) under the total platform wrench `wrench`.
+    pub fn boundary_point<'a>(&'a self, pose: &'a Pose, wrench: &'a Wrench) -> BoundaryPoint<'a> {
+        BoundaryPoint {
+            pose,
+            q: &self.q,
+            wrench,
+            y_u: &self.y_u,
+            tendon_unknown: TendonUnknown::Gamma,
+        }
+    }
+
+    /// The IK state at `pose` with actuation `q` and leg unknowns `y_u` in the solver's
+    /// tendon variable (converted back to γ).
+    pub(crate) fn at_pose(model: &Model, pose: &Pose, q: Vec<f64>, mut y_u: Vec<f64>) -> Self {
+        convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+        RobotState {
+            position: pose.position.into(),
+            rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                .scaled_axis()
+                .into(),
+            q,
+            y_u,
+        }
+    }
 }
 
 /// A converged solve.
@@ -368,16 +394,7 @@ impl Solver {
             report.jacobian_evaluations += 1;
             report.residual_norm = r.norm();
             if report.residual_norm <= settings.tolerance {
-                convert_tendon_unknowns(model, &mut y, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
-                let state = RobotState {
-                    position: pose.position.into(),
-                    rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
-                        .scaled_axis()
-                        .into(),
-                    q,
-                    y_u: y,
-                };
-                return Ok((state, report));
+                return Ok((RobotState::at_pose(model, pose, q, y), report));
             }
             if report.iterations >= settings.max_iterations {
                 return Err(SolveError::NotConverged {
@@ -870,13 +887,7 @@ impl Solver {
     ) -> Result<(DVector<f64>, &BoundaryJacobians), SolveError> {
         let wrench = self.total_wrench(extra);
         let pose = state.pose();
-        let p = BoundaryPoint {
-            pose: &pose,
-            q: &state.q,
-            wrench: &wrench,
-            y_u: &state.y_u,
-            tendon_unknown: TendonUnknown::Gamma,
-        };
+        let p = state.boundary_point(&pose, &wrench);
         self.last = None;
         let mut r = DVector::zeros(self.model.n_residuals());
         boundary_derivatives(

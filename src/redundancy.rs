@@ -36,7 +36,7 @@ use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
 };
-use nalgebra::{DMatrix, DVector, Rotation3};
+use nalgebra::{DMatrix, DVector};
 
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
@@ -189,16 +189,7 @@ impl Iteration<'_> {
             report.jacobian_evaluations += 1;
             report.residual_norm = r.norm();
             if report.residual_norm <= settings.tolerance {
-                convert_tendon_unknowns(model, &mut y, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
-                let state = RobotState {
-                    position: self.pose.position.into(),
-                    rotvec: Rotation3::from_matrix_unchecked(self.pose.rotation)
-                        .scaled_axis()
-                        .into(),
-                    q,
-                    y_u: y,
-                };
-                return Ok((state, report));
+                return Ok((RobotState::at_pose(model, self.pose, q, y), report));
             }
             if report.iterations >= settings.max_iterations {
                 return Err(not_converged(&report, "iteration limit reached"));
