@@ -72,6 +72,20 @@ pub struct NewtonSettings {
     /// reduces the weighted residual norm by at least this factor; 0 re-evaluates the
     /// Jacobian at every iterate (plain Newton).
     pub chord_contraction: f64,
+    /// An early exit for runs that make no headway (e.g. a path step beyond a fold, where
+    /// no solution exists); `None` runs to [`NewtonSettings::max_iterations`].
+    pub progress_check: Option<ProgressCheck>,
+}
+
+/// Fail a Newton run after `iterations` iterations unless ‖F‖₂ has fallen by at least
+/// `factor` from the start. The run then ends exactly as one limited to `iterations`
+/// would; one that passes goes on without repeating them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProgressCheck {
+    /// Iterations after which the progress is checked.
+    pub iterations: usize,
+    /// Required reduction ‖F(x₀)‖ / ‖F(x_k)‖ (> 1).
+    pub factor: f64,
 }
 
 impl Default for NewtonSettings {
@@ -81,6 +95,7 @@ impl Default for NewtonSettings {
             max_iterations: 60,
             initial_radius_factor: 100.0,
             chord_contraction: 0.1,
+            progress_check: None,
         }
     }
 }
@@ -268,6 +283,15 @@ pub fn solve<S: NonlinearSystem>(
         }
         if iterations >= settings.max_iterations {
             return Err(not_converged(iterations, norm, "iteration limit reached"));
+        }
+        if let Some(check) = settings.progress_check {
+            if iterations == check.iterations && sc.history[0] < check.factor * norm {
+                return Err(not_converged(
+                    iterations,
+                    norm,
+                    "too little progress in the first iterations",
+                ));
+            }
         }
         if !sc.factored {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.
@@ -509,35 +533,87 @@ mod tests {
         assert!((x[0] - 1.098_159_3e-5).abs() < 1e-10, "x = {x}");
     }
 
+    /// x² + 1 = 0: Newton creeps towards the minimum of |F| at x = 0 and never converges.
+    struct NoRoot;
+
+    impl NonlinearSystem for NoRoot {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = x[0] * x[0] + 1.0;
+            Ok(())
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.residual(x, r)?;
+            j[(0, 0)] = 2.0 * x[0];
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+    }
+
+    #[test]
+    fn a_progress_check_ends_a_crawling_run_at_its_iteration() {
+        let settings = NewtonSettings {
+            progress_check: Some(ProgressCheck {
+                iterations: 4,
+                factor: 100.0,
+            }),
+            ..Default::default()
+        };
+        let mut sc = NewtonScratch::new(1, 60);
+        let err = solve(
+            &mut NoRoot,
+            &mut DVector::from_vec(vec![3.0]),
+            &settings,
+            &mut sc,
+        )
+        .unwrap_err();
+        match err {
+            SolveError::NotConverged {
+                iterations, reason, ..
+            } => {
+                assert_eq!(iterations, 4);
+                assert!(reason.contains("progress"), "{reason}");
+            }
+            e => panic!("unexpected {e}"),
+        }
+        assert_eq!(sc.residual_history().len(), 5);
+    }
+
+    #[test]
+    fn a_passed_progress_check_changes_nothing() {
+        let plain = NewtonSettings {
+            tolerance: 1e-12,
+            max_iterations: 200,
+            ..Default::default()
+        };
+        let checked = NewtonSettings {
+            progress_check: Some(ProgressCheck {
+                iterations: 3,
+                factor: 1.5,
+            }),
+            ..plain
+        };
+        let mut sc = NewtonScratch::new(2, 200);
+        let mut a = DVector::from_vec(vec![0.0, 1.0]);
+        let ra = solve(&mut Powell, &mut a, &plain, &mut sc).unwrap();
+        let mut b = DVector::from_vec(vec![0.0, 1.0]);
+        let rb = solve(&mut Powell, &mut b, &checked, &mut sc).unwrap();
+        assert!(ra.iterations > 3);
+        assert_eq!(a, b);
+        assert_eq!(ra, rb);
+    }
+
     #[test]
     fn reports_failure_with_residual_and_iterations() {
-        struct NoRoot;
-        impl NonlinearSystem for NoRoot {
-            fn dim(&self) -> usize {
-                1
-            }
-            fn residual(
-                &mut self,
-                x: &DVector<f64>,
-                r: &mut DVector<f64>,
-            ) -> Result<(), SolveError> {
-                r[0] = x[0] * x[0] + 1.0;
-                Ok(())
-            }
-            fn residual_and_jacobian(
-                &mut self,
-                x: &DVector<f64>,
-                r: &mut DVector<f64>,
-                j: &mut DMatrix<f64>,
-            ) -> Result<(), SolveError> {
-                self.residual(x, r)?;
-                j[(0, 0)] = 2.0 * x[0];
-                Ok(())
-            }
-            fn row_weights(&self, w: &mut DVector<f64>) {
-                w.fill(1.0);
-            }
-        }
         let mut x = DVector::from_vec(vec![3.0]);
         let mut sc = NewtonScratch::new(1, 20);
         let err = solve(&mut NoRoot, &mut x, &NewtonSettings::default(), &mut sc).unwrap_err();
