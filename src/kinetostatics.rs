@@ -381,6 +381,7 @@ impl Solver {
         let mut rhs = DVector::zeros(n);
         let mut lu = DenseLu::new(n);
         let mut report = NewtonReport::none();
+        let mut first_norm = f64::NAN;
         loop {
             let p = BoundaryPoint {
                 pose,
@@ -393,15 +394,20 @@ impl Solver {
             report.residual_evaluations += 1;
             report.jacobian_evaluations += 1;
             report.residual_norm = r.norm();
+            if report.iterations == 0 {
+                first_norm = report.residual_norm;
+            }
             if report.residual_norm <= settings.tolerance {
                 return Ok((RobotState::at_pose(model, pose, q, y), report));
             }
-            if report.iterations >= settings.max_iterations {
+            if let Some(reason) =
+                settings.stop_reason(report.iterations, first_norm, report.residual_norm)
+            {
                 return Err(SolveError::NotConverged {
                     iterations: report.iterations,
                     residual_norm: report.residual_norm,
                     tolerance: settings.tolerance,
-                    reason: "iteration limit reached",
+                    reason,
                 });
             }
             // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,

@@ -77,6 +77,24 @@ pub struct NewtonSettings {
     pub progress_check: Option<ProgressCheck>,
 }
 
+impl NewtonSettings {
+    /// Whether a run that is not converged must stop before iteration `iterations + 1`:
+    /// the reason (iteration limit, or a failed [`ProgressCheck`] given the first residual
+    /// norm `first` and the current `norm`), or `None` to go on. Every solver loop that
+    /// takes these settings asks this.
+    pub fn stop_reason(&self, iterations: usize, first: f64, norm: f64) -> Option<&'static str> {
+        if iterations >= self.max_iterations {
+            return Some("iteration limit reached");
+        }
+        match self.progress_check {
+            Some(check) if iterations == check.iterations && first < check.factor * norm => {
+                Some("too little progress in the first iterations")
+            }
+            _ => None,
+        }
+    }
+}
+
 /// Fail a Newton run after `iterations` iterations unless ‖F‖₂ has fallen by at least
 /// `factor` from the start. The run then ends exactly as one limited to `iterations`
 /// would; one that passes goes on without repeating them.
@@ -281,17 +299,8 @@ pub fn solve<S: NonlinearSystem>(
                 residual_norm: norm,
             });
         }
-        if iterations >= settings.max_iterations {
-            return Err(not_converged(iterations, norm, "iteration limit reached"));
-        }
-        if let Some(check) = settings.progress_check {
-            if iterations == check.iterations && sc.history[0] < check.factor * norm {
-                return Err(not_converged(
-                    iterations,
-                    norm,
-                    "too little progress in the first iterations",
-                ));
-            }
+        if let Some(reason) = settings.stop_reason(iterations, sc.history[0], norm) {
+            return Err(not_converged(iterations, norm, reason));
         }
         if !sc.factored {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.

@@ -170,6 +170,7 @@ impl Iteration<'_> {
         row_weights(model, &mut weights);
         let mut r = DVector::zeros(m);
         let mut report = NewtonReport::none();
+        let mut first_norm = f64::NAN;
         let not_converged = |report: &NewtonReport, reason| SolveError::NotConverged {
             iterations: report.iterations,
             residual_norm: report.residual_norm,
@@ -188,11 +189,16 @@ impl Iteration<'_> {
             report.residual_evaluations += 1;
             report.jacobian_evaluations += 1;
             report.residual_norm = r.norm();
+            if report.iterations == 0 {
+                first_norm = report.residual_norm;
+            }
             if report.residual_norm <= settings.tolerance {
                 return Ok((RobotState::at_pose(model, self.pose, q, y), report));
             }
-            if report.iterations >= settings.max_iterations {
-                return Err(not_converged(&report, "iteration limit reached"));
+            if let Some(reason) =
+                settings.stop_reason(report.iterations, first_norm, report.residual_norm)
+            {
+                return Err(not_converged(&report, reason));
             }
             let towards = reference.filter(|_| 2 * report.iterations < settings.max_iterations);
             let qp = StepQp::new(self.blocks, &weights, &r, &q, self.limits, towards);

@@ -145,3 +145,49 @@ fn the_6_dof_design_ignores_the_redundancy_setting() {
     let qb = b.solve_ik(&pose, &w, None).unwrap().state.q;
     assert_eq!(qa, qb);
 }
+
+/// Every IK loop (square Newton, least-norm, within limits) stops a run that fails its
+/// progress check at the check's iteration.
+#[test]
+fn every_ik_loop_honours_the_progress_check() {
+    use tdpcr::error::SolveError;
+    use tdpcr::newton::ProgressCheck;
+    let six = Tdpcr::from_ron_file(design_path("lilge2022.ron")).unwrap();
+    let nine = design();
+    let cases = [
+        (&six, Redundancy::LeastNorm),
+        (&nine, Redundancy::LeastNorm),
+        (&nine, Redundancy::WithinLimits(Objective::LeastChange)),
+    ];
+    let w = Wrench::default();
+    for (d, redundancy) in cases {
+        let mut s = Solver::new(d);
+        let home = s
+            .solve_fk(&vec![0.0; d.n_actuators()], &w, None)
+            .unwrap()
+            .state;
+        let mut pose = home.pose();
+        pose.position.z += 0.04;
+        s.redundancy = redundancy.clone();
+        // A reduction by 1e12 in one iteration is what a 4 cm step from home never makes.
+        s.settings.progress_check = Some(ProgressCheck {
+            iterations: 1,
+            factor: 1e12,
+        });
+        match s.solve_ik_newton(&pose, &w, &home) {
+            Err(Error::Solve(SolveError::NotConverged {
+                iterations, reason, ..
+            })) => {
+                assert_eq!(iterations, 1, "{redundancy:?}");
+                assert!(reason.contains("progress"), "{redundancy:?}: {reason}");
+            }
+            other => panic!("{redundancy:?}: {other:?}"),
+        }
+        // Without the check the same step converges.
+        s.settings.progress_check = None;
+        assert!(
+            s.solve_ik_newton(&pose, &w, &home).is_ok(),
+            "{redundancy:?}"
+        );
+    }
+}

@@ -820,7 +820,15 @@ fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
 
 /// The trailing solutions of `history` whose tendons are taut or slack as in the last
 /// one, if there are at least two of them; otherwise the whole history (see [`predict`]).
+///
+/// Always the whole history for a redundant design (more actuators than a square IK):
+/// there the least-norm IK picks the solution nearest its start, so the predictor also
+/// chooses the path through the solution set, and the shorter history measured worse
+/// (Δ = 6 mm, φ = 0.05 rad: 11 044 instead of 12 057 reachable cells).
 fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s RobotState] {
+    if model.pairs > 1 {
+        return history;
+    }
     let nu = model.n_leg_unknowns();
     let same_pattern = |a: &RobotState, b: &RobotState| {
         (0..3)
@@ -1103,19 +1111,14 @@ mod tests {
         }
     }
 
-    fn model() -> Model {
-        Model::new(
-            &Tdpcr::from_ron_file(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/designs/lilge2022.ron"
-            ))
-            .unwrap(),
-        )
+    fn model(design: &str) -> Model {
+        let path = format!("{}/designs/{design}", env!("CARGO_MANIFEST_DIR"));
+        Model::new(&Tdpcr::from_ron_file(path).unwrap())
     }
 
     #[test]
     fn the_predictor_is_quadratic_within_one_taut_slack_pattern() {
-        let m = model();
+        let m = model("lilge2022.ron");
         let h = [
             state(&m, 1.0, 1.0),
             state(&m, 2.0, 1.1),
@@ -1128,7 +1131,7 @@ mod tests {
 
     #[test]
     fn the_predictor_extrapolates_only_the_solutions_after_a_switch() {
-        let m = model();
+        let m = model("lilge2022.ron");
         // The tendons switched from slack to taut between the first and second solution.
         let h = [
             state(&m, 1.0, -0.5),
@@ -1142,6 +1145,18 @@ mod tests {
         let h = [
             state(&m, 1.0, -0.5),
             state(&m, 2.0, -0.4),
+            state(&m, 3.0, 1.2),
+        ];
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
+        assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
+    }
+
+    #[test]
+    fn the_predictor_of_a_redundant_design_always_extrapolates_the_whole_history() {
+        let m = model("lilge2022_redundant.ron");
+        let h = [
+            state(&m, 1.0, -0.5),
+            state(&m, 2.0, 1.1),
             state(&m, 3.0, 1.2),
         ];
         let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
