@@ -151,12 +151,8 @@ pub fn convert_tendon_unknowns(
     from: TendonUnknown,
     to: TendonUnknown,
 ) {
-    let nu = model.n_leg_unknowns();
-    for leg in 0..3 {
-        for k in 0..model.n_tendons() {
-            let x = &mut y_u[leg * nu + k];
-            *x = to.from_gamma(from.to_gamma(*x));
-        }
+    for i in model.tendon_unknown_indices() {
+        y_u[i] = to.from_gamma(from.to_gamma(y_u[i]));
     }
 }
 

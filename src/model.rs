@@ -107,6 +107,13 @@ impl Model {
         self.leg.n_tendons + 6
     }
 
+    /// Indices of the tendon unknowns (γ or ζ) in the stacked y_u of the three legs, leg by
+    /// leg.
+    pub fn tendon_unknown_indices(&self) -> impl Iterator<Item = usize> + use<> {
+        let (nu, nt) = (self.n_leg_unknowns(), self.n_tendons());
+        (0..3).flat_map(move |leg| (0..nt).map(move |k| leg * nu + k))
+    }
+
     /// Rows of the boundary residual b: 6 platform rows + per leg 6 + n_t (30 or 36).
     pub fn n_residuals(&self) -> usize {
         6 + 3 * self.n_leg_unknowns()

@@ -588,9 +588,8 @@ impl PlaneJob<'_> {
 
 /// Tendon tensions \[N\] of a state, legs concatenated.
 fn tensions(model: &Model, state: &RobotState) -> Vec<f64> {
-    let nu = model.n_leg_unknowns();
-    (0..3)
-        .flat_map(|i| (0..model.n_tendons()).map(move |k| i * nu + k))
+    model
+        .tendon_unknown_indices()
         .map(|i| tension(state.y_u[i]))
         .collect()
 }
@@ -800,13 +799,9 @@ fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
     let last = history[history.len() - 1];
     let last_zeta = &zeta[zeta.len() - 1];
     let mut y_u = extrapolate(&zeta.iter().map(Vec::as_slice).collect::<Vec<_>>());
-    let nu = model.n_leg_unknowns();
-    for leg in 0..3 {
-        for k in 0..model.n_tendons() {
-            let i = leg * nu + k;
-            if y_u[i] * last_zeta[i] < 0.0 {
-                y_u[i] = 0.0;
-            }
+    for i in model.tendon_unknown_indices() {
+        if y_u[i] * last_zeta[i] < 0.0 {
+            y_u[i] = 0.0;
         }
     }
     convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
@@ -829,10 +824,9 @@ fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s
     if model.pairs > 1 {
         return history;
     }
-    let nu = model.n_leg_unknowns();
     let same_pattern = |a: &RobotState, b: &RobotState| {
-        (0..3)
-            .flat_map(|leg| (0..model.n_tendons()).map(move |k| leg * nu + k))
+        model
+            .tendon_unknown_indices()
             .all(|i| (a.y_u[i] > 0.0) == (b.y_u[i] > 0.0))
     };
     let Some(last) = history.last() else {
