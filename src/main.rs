@@ -61,7 +61,7 @@ struct WorkspaceArgs {
     /// Angle φ between rays [rad].
     #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_ANGLE_STEP, allow_hyphen_values = true)]
     angle_step: f64,
-    /// Lowest and highest plane ZMIN,ZMAX [m] (default -0.12,0.12: covers the reference
+    /// Lowest and highest plane ZMIN,ZMAX [m] (default -0.15,0.15: covers the reference
     /// design's workspace at R_ee = I).
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     z_range: Option<Values>,
@@ -640,6 +640,8 @@ struct AnalyzeOutput {
     thresholds: AnalysisSettings,
     ellipsoids: tdpcr::analysis::Ellipsoids,
     min_tension: f64,
+    /// Stability with the actuators held (signs of sym(C), MODEL.md §4b).
+    stability: tdpcr::analysis::Stability,
     /// SVG files written by --plot.
     plots: Vec<PathBuf>,
 }
@@ -691,6 +693,7 @@ fn run_analyze(args: &AnalyzeArgs) -> Result<(), Error> {
         thresholds: settings,
         ellipsoids: a.ellipsoids.clone(),
         min_tension: a.min_tension,
+        stability: a.stability,
         plots,
     };
     match args.solve.format {
@@ -765,6 +768,28 @@ fn print_analysis(out: &AnalyzeOutput) {
         println!("  {name} [{unit}]: {}", axes.join(", "));
     }
     println!("min tendon tension [N]: {:.6}", out.min_tension);
+    let st = &out.stability;
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:+.4e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!(
+        "stability (actuators held): {}; eig sym(C) scaled [{}]",
+        if st.stable {
+            "stable"
+        } else {
+            "UNSTABLE (sym(C) has a negative eigenvalue)"
+        },
+        list(&st.eigenvalues)
+    );
+    println!(
+        "  eig sym(C_p) [m/N] [{}]; eig sym(C_o) [rad/(N m)] [{}]; asymmetry {:.1e}",
+        list(&st.eigenvalues_c_p),
+        list(&st.eigenvalues_c_o),
+        st.asymmetry
+    );
     for path in &out.plots {
         println!("wrote {}", path.display());
     }
@@ -959,13 +984,25 @@ fn run_workspace(args: &WorkspaceArgs) -> Result<(), Error> {
     let written = files::write_outputs(&map, &args.out)?;
     let s = &map.summary;
     println!(
-        "{} reachable cells ({:.3e} m³), {} near Type II, {} collision; planes z {:.3}..{:.3} m",
+        "{} reachable cells ({:.3e} m³), {} near Type II, {} collision, {} unstable; planes z \
+         {:.3}..{:.3} m",
         s.counts.reachable,
         s.volume.reachable,
         s.counts.near_type_ii,
         s.counts.collision,
+        s.counts.unstable,
         s.z_reached[0],
         s.z_reached[1]
+    );
+    let t = &s.table_iii.per_sample.without_type_ii;
+    println!(
+        "Tab. III means over {} ray samples (near Type II excluded): rcond J_p {:.3}, J_o {:.3}, \
+         C_p {:.3}, C_o {:.3}",
+        s.table_iii.per_sample.without_type_ii_count,
+        t.j_p.mean,
+        t.j_o.mean,
+        t.c_p.mean,
+        t.c_o.mean
     );
     println!(
         "{} solves in {:.1} s on {} threads ({:.0} solves/s)",

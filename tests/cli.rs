@@ -299,8 +299,9 @@ fn trajectory_reports_steps_and_stats_and_jacobian_check_compares_blocks() {
     let path = dir.join("q.csv");
     let mut csv = String::from("q1,q2,q3,q4,q5,q6\n");
     for k in 0..5 {
+        // Leg 1 bends towards its taut tendon's side: no taut/slack switch on the way.
         let x = 0.0005 * k as f64;
-        csv.push_str(&format!("{x},{},0,0,0,0\n", 2.0 * x));
+        csv.push_str(&format!("{},{},0,0,0,0\n", -x, 2.0 * x));
     }
     std::fs::write(&path, csv).unwrap();
     let o = tdpcr(&[
@@ -379,13 +380,14 @@ fn workspace_writes_points_summary_and_figures() {
          rcond_b_xu,rcond_b_qu,rcond_b_u,rcond_j_p,rcond_j_o,rcond_c_p,rcond_c_o,\
          rcond_scaled_b_xu,rcond_scaled_b_qu,rcond_scaled_b_u,rcond_scaled_j_p,\
          rcond_scaled_j_o,rcond_scaled_c_p,rcond_scaled_c_o,\
-         near_type_i,near_type_ii,near_leg_singularity,collision"
+         near_type_i,near_type_ii,near_leg_singularity,collision,unstable,\
+         min_compliance_eigenvalue"
     );
     let rows: Vec<&str> = lines.collect();
     assert!(rows.len() > 10);
     for row in &rows {
         let fields: Vec<&str> = row.split(',').collect();
-        assert_eq!(fields.len(), 34, "{row}");
+        assert_eq!(fields.len(), 36, "{row}");
         assert!(
             fields
                 .iter()
@@ -410,6 +412,7 @@ fn workspace_writes_points_summary_and_figures() {
         "rcond",
         "rcond_scaled",
         "min_tension",
+        "table_iii",
         "fractions",
         "ray_ends",
         "solves",
@@ -427,12 +430,23 @@ fn workspace_writes_points_summary_and_figures() {
         "near_type_ii",
         "near_leg_singularity",
         "collision",
+        "unstable",
     ] {
         assert!(
             v["counts"][key].is_u64() && v["volume"][key].is_f64(),
             "{key}"
         );
     }
+    for per in ["per_cell", "per_sample"] {
+        for variant in ["all", "without_type_ii", "regular"] {
+            let t = &v["table_iii"][per];
+            assert!(t[format!("{variant}_count")].is_u64(), "{per} {variant}");
+            for key in ["j_p", "j_o", "c_p", "c_o"] {
+                assert!(t[variant][key]["mean"].is_f64(), "{per} {variant} {key}");
+            }
+        }
+    }
+    assert!(v["ray_ends"]["unstable"].is_u64());
     for key in ["j_p", "j_o", "c_p", "c_o"] {
         for stat in ["mean", "min", "max"] {
             assert!(v["rcond"][key][stat].is_f64(), "rcond.{key}.{stat}");

@@ -150,7 +150,7 @@ fn warm_newton_converges_quadratically() {
     // A 0.1 mm translation and 0.05 mm tendon step from the home solution, by plain
     // Newton (a Jacobian at every iterate) from the unpredicted start (a second solver,
     // which has not solved home itself).
-    let q = [0.00005, 0.0001, 0.0, 0.0, 0.0, 0.0];
+    let q = [0.0002, 0.0004, 0.0, 0.0, 0.0, 0.0];
     let mut s = solver("lilge2022.ron");
     s.settings.chord_contraction = 0.0;
     let sol = s.solve_fk(&q, &w, Some(&home.state)).unwrap();

@@ -10,8 +10,10 @@ use tdpcr::kinetostatics::{RobotState, Solver};
 use tdpcr::redundancy::{Objective, Redundancy};
 use tdpcr::rod::Wrench;
 
+/// The ψ = 0 twin of the redundant reference design: the configurations below (pair 2
+/// near its limit) were chosen on it.
 fn design() -> Tdpcr {
-    Tdpcr::from_ron_file(design_path("lilge2022_redundant.ron")).unwrap()
+    Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap()
 }
 
 /// Largest |q_j| / limit_j (per leg [bend_x, bend_y, translation]).

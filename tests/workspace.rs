@@ -194,3 +194,118 @@ fn a_design_that_breaks_its_rules_is_rejected_before_sweeping() {
         "{msg}"
     );
 }
+
+/// The plane z = 0 of `file` at Δ = 6 mm with 32 rays.
+fn plane_zero(file: &str) -> WorkspaceMap {
+    let design = Tdpcr::from_ron_file(design_path(file)).unwrap();
+    let settings = WorkspaceSettings {
+        step: 0.006,
+        angle_step: 0.2,
+        z_range: [0.0, 0.0],
+        ..Default::default()
+    };
+    sweep_workspace(&design, &settings).unwrap()
+}
+
+/// Whether a fresh analysis of the point's state finds it stable (MODEL.md §4b).
+fn stable(solver: &mut Solver, state: &RobotState) -> bool {
+    solver
+        .analyze(state, &Wrench::default(), &Default::default())
+        .map(|a| a.stability.stable)
+        .unwrap_or(false)
+}
+
+#[test]
+fn unstable_equilibria_end_rays_and_are_recorded_but_not_reachable() {
+    // The ψ = 0 design has unstable equilibria inside its z = 0 slice (MODEL.md §1).
+    let map = plane_zero("lilge2022_psi0.ron");
+    let s = &map.summary;
+    assert!(s.ray_ends.unstable > 0, "{:?}", s.ray_ends);
+    assert!(s.counts.unstable > 0, "{:?}", s.counts);
+    let design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
+    let mut solver = Solver::new(&design);
+    let (mut reachable, mut unstable) = (0, 0);
+    for p in &map.points {
+        assert_eq!(
+            stable(&mut solver, &p.state),
+            p.metrics.stable,
+            "{:?}",
+            p.cell
+        );
+        if p.reachable() {
+            reachable += 1;
+        } else if !p.metrics.stable {
+            unstable += 1;
+            assert!(
+                p.metrics.min_compliance_eigenvalue <= 0.0,
+                "{:?}",
+                p.metrics
+            );
+        }
+    }
+    assert_eq!(
+        (reachable, unstable),
+        (s.counts.reachable, s.counts.unstable)
+    );
+    assert!(s.table_iii.per_sample.all_count > s.table_iii.per_sample.regular_count);
+}
+
+#[test]
+fn no_reachable_cell_of_the_reference_design_is_unstable() {
+    let design = reference();
+    let settings = WorkspaceSettings {
+        step: 0.01,
+        angle_step: 0.3,
+        z_range: [-0.1, 0.12],
+        ..Default::default()
+    };
+    let map = sweep_workspace(&design, &settings).unwrap();
+    let s = &map.summary;
+    assert_eq!((s.counts.unstable, s.ray_ends.unstable), (0, 0), "{s:?}");
+    assert!(s.counts.reachable > 1000, "{:?}", s.counts);
+    let mut solver = Solver::new(&design);
+    for p in map.points.iter().filter(|p| p.reachable()) {
+        assert!(stable(&mut solver, &p.state), "{:?}", p.cell);
+    }
+}
+
+#[test]
+fn leg_singularity_lines_are_flagged_where_a_pair_changes_its_taut_side() {
+    let map = plane_zero("lilge2022.ron");
+    let switched: Vec<_> = map.points.iter().filter(|p| p.metrics.leg_switch).collect();
+    assert!(switched.len() >= 6, "{}", switched.len());
+    for p in &switched {
+        assert!(p.metrics.singularity.leg);
+    }
+    // The home cell lies between the three lines (Fig. 9): no pair switches there.
+    let home = map.points.iter().find(|p| p.cell == [0, 0, 0]).unwrap();
+    assert!(!home.metrics.leg_switch);
+}
+
+/// Reachable cells of each plane of a sweep.
+fn cells_per_plane(map: &WorkspaceMap) -> Vec<usize> {
+    let (lo, hi) = (map.points[0].cell[2], map.points.last().unwrap().cell[2]);
+    (lo..=hi)
+        .map(|k| map.plane(k).filter(|p| p.reachable()).count())
+        .collect()
+}
+
+#[test]
+fn a_plane_origin_where_leg_singularity_lines_meet_does_not_starve_its_plane() {
+    // At z = −54 mm every leg's slack tendon of the reference design is within 8 µm of
+    // taut at the plane origin: the first steps switch pairs in most directions.
+    let settings = WorkspaceSettings {
+        step: 0.003,
+        angle_step: 0.1,
+        z_range: [-0.057, -0.051],
+        ..Default::default()
+    };
+    let map = sweep_workspace(&reference(), &settings).unwrap();
+    let n = cells_per_plane(&map);
+    assert_eq!(n.len(), 3);
+    let neighbours = (n[0] + n[2]) as f64 / 2.0;
+    assert!(
+        (n[1] as f64 / neighbours - 1.0).abs() < 0.1,
+        "cells per plane {n:?}"
+    );
+}

@@ -34,6 +34,7 @@ pub mod plot;
 mod qr;
 pub mod rcond;
 pub mod scaling;
+pub mod stability;
 
 use nalgebra::{DMatrix, Matrix3};
 use serde::Serialize;
@@ -49,6 +50,7 @@ use qr::{LegQr, Scales, back_substitute};
 
 pub use ellipsoid::Ellipsoid;
 pub use scaling::UnitScaling;
+pub use stability::Stability;
 
 /// Thresholds of the singularity flags, on raw SI rcond values.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -149,6 +151,8 @@ pub struct Analysis {
     pub ellipsoids: Ellipsoids,
     /// Smallest tendon tension over all tendons of all legs \[N\] (0 if any is slack).
     pub min_tension: f64,
+    /// Stability with the actuators held, from the signs of sym(C) ([`stability`]).
+    pub stability: Stability,
 }
 
 impl Analysis {
@@ -294,13 +298,14 @@ pub fn analyze_blocks(
         lambda_fk,
         j_ik,
         lambda_ik,
-        compliance,
         lambda_c,
         rcond,
         rcond_scaled,
         singularity,
         ellipsoids,
         min_tension: min_tension(model, y_u),
+        stability: Stability::of_compliance(model, &compliance),
+        compliance,
     })
 }
 

@@ -1,8 +1,9 @@
 //! Slice figures of a workspace map (SVG, plotters), at the planes nearest to
 //! z = −0.06, 0 and 0.06 m (the paper's slices) that hold cells:
 //!
-//! - `reach_z<z>.svg`: reachable (grey), near a Type II singularity (red), collision
-//!   (blue), like the paper's Fig. 7;
+//! - `reach_z<z>.svg`: reachable (grey), near a leg singularity (orange: the lines of
+//!   Fig. 9 where a tendon pair changes its taut side), near a Type II singularity (red),
+//!   collision (blue), unstable with the actuators held (black), like the paper's Fig. 7;
 //! - `rcond_z<z>.svg`: heat maps of rcond of J_p, J_o, C_p, C_o (linear) and of
 //!   \[B_q B_u\], \[B_x B_u\], B_u (log10, raw SI), like Fig. 9 (top, middle);
 //! - `tension_z<z>.svg`: the tendon tensions of leg 1, one panel per tendon, like Fig. 9
@@ -22,6 +23,8 @@ const PANEL: u32 = 360;
 const GREY: RGBColor = RGBColor(176, 176, 176);
 const TYPE_II_RED: RGBColor = RGBColor(214, 39, 40);
 const COLLISION_BLUE: RGBColor = RGBColor(31, 119, 180);
+const LEG_ORANGE: RGBColor = RGBColor(255, 127, 14);
+const UNSTABLE_BLACK: RGBColor = RGBColor(0, 0, 0);
 
 /// (file name, SVG text) of every figure, for each slice of [`SLICE_HEIGHTS`] with cells.
 pub fn slice_figures(map: &WorkspaceMap) -> Vec<(String, String)> {
@@ -137,27 +140,33 @@ fn draw(
 
 fn reach_figure(cells: &[&WorkspacePoint], frame: &Frame, tag: &str) -> String {
     let colour = |p: &WorkspacePoint| {
-        if p.collision {
+        if !p.metrics.stable {
+            UNSTABLE_BLACK
+        } else if p.collision {
             COLLISION_BLUE
         } else if p.metrics.singularity.type_ii {
             TYPE_II_RED
+        } else if p.metrics.singularity.leg {
+            LEG_ORANGE
         } else {
             GREY
         }
     };
     let n = |f: &dyn Fn(&WorkspacePoint) -> bool| cells.iter().filter(|p| f(p)).count();
     let title = format!(
-        "{tag}: reachable {} / near Type II {} / collision {}",
-        n(&|p| !p.collision),
-        n(&|p| !p.collision && p.metrics.singularity.type_ii),
-        n(&|p| p.collision)
+        "{tag}: reachable {} / near Type II {} / leg {} / collision {} / unstable {}",
+        n(&|p| p.reachable()),
+        n(&|p| p.reachable() && p.metrics.singularity.type_ii),
+        n(&|p| p.reachable() && p.metrics.singularity.leg),
+        n(&|p| p.collision && p.metrics.stable),
+        n(&|p| !p.metrics.stable)
     );
     let panel = (title, cells.iter().map(|p| (*p, colour(p))).collect());
     render(
         &[panel],
         1,
         frame,
-        "grey: reachable, red: near Type II, blue: collision",
+        "grey: reachable, orange: near a leg singularity, red: near Type II, blue: collision, black: unstable",
     )
 }
 
@@ -172,7 +181,7 @@ fn rcond_figure(cells: &[&WorkspacePoint], frame: &Frame, tag: &str) -> String {
         ("[B_x B_u]", |r| r.b_xu, true),
         ("B_u", |r| r.b_u, true),
     ];
-    let reachable: Vec<&WorkspacePoint> = cells.iter().copied().filter(|p| !p.collision).collect();
+    let reachable: Vec<&WorkspacePoint> = cells.iter().copied().filter(|p| p.reachable()).collect();
     let panels: Vec<Panel> = measures
         .iter()
         .map(|(name, pick, log)| {
@@ -197,7 +206,7 @@ fn rcond_figure(cells: &[&WorkspacePoint], frame: &Frame, tag: &str) -> String {
 }
 
 fn tension_figure(cells: &[&WorkspacePoint], frame: &Frame, tag: &str, n_t: usize) -> String {
-    let reachable: Vec<&WorkspacePoint> = cells.iter().copied().filter(|p| !p.collision).collect();
+    let reachable: Vec<&WorkspacePoint> = cells.iter().copied().filter(|p| p.reachable()).collect();
     let panels: Vec<Panel> = (0..n_t)
         .map(|k| {
             let label = format!("leg 1, tendon {} tension [N]", k + 1);

@@ -23,7 +23,9 @@ pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), Error> {
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
 /// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
 /// rcond_c_o`), the same unit-scaled (`rcond_scaled_...`), then the flags
-/// `near_type_i, near_type_ii, near_leg_singularity, collision` (0 or 1).
+/// `near_type_i, near_type_ii, near_leg_singularity, collision, unstable` (0 or 1;
+/// `unstable`: the equilibrium is unstable with the actuators held and ended its ray),
+/// then `min_compliance_eigenvalue` (smallest eigenvalue of the unit-scaled sym(C)).
 pub fn csv_header(n_actuators: usize, tendons_per_leg: usize) -> Vec<String> {
     let mut h: Vec<String> = ["x", "y", "z"].map(String::from).to_vec();
     h.extend((1..=n_actuators).map(|i| format!("q{i}")));
@@ -40,6 +42,8 @@ pub fn csv_header(n_actuators: usize, tendons_per_leg: usize) -> Vec<String> {
             "near_type_ii",
             "near_leg_singularity",
             "collision",
+            "unstable",
+            "min_compliance_eigenvalue",
         ]
         .map(String::from),
     );
@@ -74,14 +78,18 @@ pub fn points_csv(map: &WorkspaceMap) -> String {
             };
         }
         let f = &m.singularity;
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{},{},{},{}",
+            "{},{},{},{},{},",
             flag(f.type_i),
             flag(f.type_ii),
             flag(f.leg),
-            flag(p.collision)
+            flag(p.collision),
+            flag(!m.stable)
         );
+        let e = m.min_compliance_eigenvalue;
+        let e = if e.is_finite() { e } else { 0.0 };
+        let _ = writeln!(out, "{e:e}");
     }
     out
 }
@@ -137,9 +145,10 @@ mod tests {
         );
         assert!(h.contains(",tau_3_2,min_tension,rcond_b_xu,rcond_b_qu,rcond_b_u,rcond_j_p,"));
         assert!(h.contains(",rcond_c_o,rcond_scaled_b_xu,"));
-        assert!(
-            h.ends_with("rcond_scaled_c_o,near_type_i,near_type_ii,near_leg_singularity,collision")
-        );
-        assert_eq!(csv_header(9, 4).len(), 3 + 9 + 12 + 1 + 14 + 4);
+        assert!(h.ends_with(
+            "rcond_scaled_c_o,near_type_i,near_type_ii,near_leg_singularity,collision,\
+                 unstable,min_compliance_eigenvalue"
+        ));
+        assert_eq!(csv_header(9, 4).len(), 3 + 9 + 12 + 1 + 14 + 6);
     }
 }

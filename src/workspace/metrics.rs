@@ -1,7 +1,7 @@
 //! The per-point measures of the workspace map (MODEL.md §4, §6): reciprocal condition
-//! numbers (raw SI and unit-scaled), singularity flags and the minimum tendon tension at a
-//! solved state, from the kinetostatic analysis ([`crate::analysis`]). Every point of a
-//! sweep goes through [`point_metrics`] and nothing else.
+//! numbers (raw SI and unit-scaled), singularity flags, stability and the minimum tendon
+//! tension at a solved state, from the kinetostatic analysis ([`crate::analysis`]). Every
+//! point of a sweep goes through [`point_metrics`] and nothing else.
 
 use serde::Serialize;
 
@@ -23,11 +23,22 @@ pub struct PointMetrics {
     pub singularity: Singularity,
     /// Smallest tendon tension over all legs \[N\].
     pub min_tension: f64,
+    /// Stable with the actuators held ([`crate::analysis::stability`]): every eigenvalue
+    /// of sym(C) is positive. An unstable point ends its ray (MODEL.md §6).
+    pub stable: bool,
+    /// Smallest eigenvalue of the unit-scaled sym(C) (dimensionless; negative where
+    /// unstable, 0 where \[B_x B_u\] is exactly singular).
+    pub min_compliance_eigenvalue: f64,
+    /// A tendon pair's taut side differs from the neighbouring solution's on the ray (a
+    /// leg-singularity line crossed between them, paper Fig. 9); set by the sweep, which
+    /// also sets `singularity.leg`.
+    pub leg_switch: bool,
 }
 
 /// The measures at a solved `state` (platform weight only, no extra wrench). Where
-/// \[B_x B_u\] is exactly singular (J_FK and C do not exist) every rcond is 0 and the
-/// point is flagged near Type II only.
+/// \[B_x B_u\] is exactly singular (J_FK and C do not exist) every rcond is 0, the
+/// point is flagged near Type II only and counts as not stable (the stiffness K = C⁻¹ is
+/// singular: not positive definite).
 ///
 /// # Errors
 /// As [`Solver::analyze`], except [`AnalysisError::Singular`] (handled as above).
@@ -42,6 +53,9 @@ pub fn point_metrics(
             rcond_scaled: a.rcond_scaled,
             singularity: a.singularity,
             min_tension: a.min_tension,
+            stable: a.stability.stable,
+            min_compliance_eigenvalue: a.stability.eigenvalues[0],
+            leg_switch: false,
         }),
         Err(Error::Analysis(AnalysisError::Singular { .. })) => {
             let zero = Rconds {
@@ -65,6 +79,9 @@ pub fn point_metrics(
                     leg: false,
                 },
                 min_tension,
+                stable: false,
+                min_compliance_eigenvalue: 0.0,
+                leg_switch: false,
             })
         }
         Err(e) => Err(e),

@@ -11,14 +11,17 @@
 //!    until a step is invalid: Newton does not converge (one run from the prediction, at
 //!    most [`WorkspaceSettings::max_iterations`] iterations, to
 //!    [`WorkspaceSettings::tolerance`]; no continuation fallback), any q is outside its
-//!    actuation limits, or a disk collides ([`collision`]; with
-//!    [`CollisionPolicy::Continue`] a colliding point is recorded as such and the ray
+//!    actuation limits, the equilibrium is unstable with the actuators held (sym(C) has a
+//!    negative eigenvalue, [`crate::analysis::stability`]: the robot would snap away from
+//!    it; the point is recorded as an unstable cell), or a disk collides ([`collision`];
+//!    with [`CollisionPolicy::Continue`] a colliding point is recorded as such and the ray
 //!    goes on). For the 9-DoF design the IK is the solver's least-norm IK.
 //! 3. **Gridding.** Space is divided into cubic cells of side Δ centred on the grid
 //!    (i Δ, j Δ, k Δ); the planes are the cell layers. Each solved point falls into the
 //!    cell of its nearest grid node; a cell is *reachable* if a valid (collision-free)
-//!    point fell into it, *collision* if only colliding points did. Each cell is
-//!    represented by one solved point: a valid one before a colliding one, then the one
+//!    point fell into it, *collision* if only colliding points did, *unstable* if only
+//!    unstable points did (each ended its ray). Each cell is represented by one solved
+//!    point: a valid one before a colliding one before an unstable one, then the one
 //!    nearest to the cell centre, then the first in (ray, step) order. So a count of
 //!    cells times Δ³ is a volume. Rays are denser than the grid near the plane origin and
 //!    sparser beyond the radius Δ/φ (86 mm at the paper's settings), where cells between
@@ -26,8 +29,13 @@
 //!    workspace of radius R (about 0.1 m for the reference design): measured on it,
 //!    Δ = 10 mm gives 2.39 L with φ = 0.1 but 1.98 L with φ = 0.2 and 1.43 L with
 //!    φ = 0.35 (Δ = 3 mm, φ = 0.035: 2.47 L).
-//! 4. Every represented point gets the measures of [`metrics::point_metrics`] (rcond,
-//!    singularity flags, minimum tension).
+//! 4. Every solved point gets the measures of [`metrics::point_metrics`] (rcond,
+//!    singularity flags, stability, minimum tension) when it is solved: stability decides
+//!    whether its ray goes on, and the statistics per ray sample (the paper's Tab. III)
+//!    need every point. A leg is also flagged singular at two neighbouring points of a ray
+//!    between which one of its tendon pairs changes its taut side (paper Fig. 9: the
+//!    leg-singularity lines lie between grid points, where the τ threshold rarely sees
+//!    them).
 //!
 //! Rays run in parallel (rayon, the current thread pool; one solver per worker). Each ray
 //! depends only on its plane's origin state, and the cell representatives are chosen in a
@@ -63,8 +71,8 @@ pub const DEFAULT_STEP: f64 = 0.003;
 /// Default angular step φ between rays \[rad\] (paper: 0.035).
 pub const DEFAULT_ANGLE_STEP: f64 = 0.035;
 /// Default z-range \[m\]: covers the reachable workspace of the reference design at
-/// R_ee = I with a margin (see README).
-pub const DEFAULT_Z_RANGE: [f64; 2] = [-0.12, 0.12];
+/// R_ee = I (−0.111 … 0.129 m at Δ = 3 mm) with a margin (see README).
+pub const DEFAULT_Z_RANGE: [f64; 2] = [-0.15, 0.15];
 
 /// What a colliding point does to its ray (and to the path to the planes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
@@ -203,14 +211,15 @@ pub struct WorkspacePoint {
     pub tensions: Vec<f64>,
     /// The disks collide (not part of the reachable workspace).
     pub collision: bool,
-    /// rcond, singularity flags and minimum tension.
+    /// rcond, singularity flags, stability and minimum tension. An unstable point
+    /// (`!metrics.stable`) ended its ray and is not part of the reachable workspace.
     pub metrics: PointMetrics,
 }
 
 impl WorkspacePoint {
-    /// Reachable: valid and collision-free.
+    /// Reachable: valid, stable and collision-free.
     pub fn reachable(&self) -> bool {
-        !self.collision
+        !self.collision && self.metrics.stable
     }
 }
 
@@ -229,6 +238,9 @@ pub struct Categories<T> {
     pub near_leg_singularity: T,
     /// Cells with only colliding solutions.
     pub collision: T,
+    /// Cells with only unstable solutions (where rays ended because the equilibrium is
+    /// unstable with the actuators held).
+    pub unstable: T,
 }
 
 /// Mean, minimum and maximum of one measure over the reachable cells (0 when empty).
@@ -296,6 +308,56 @@ impl RcondStats {
     }
 }
 
+/// Raw SI rcond statistics over one population of points, in three variants.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct RcondVariants {
+    /// Every point of the population, stable or not, near a singularity or not.
+    pub all: RcondStats,
+    /// Points of `all`.
+    pub all_count: usize,
+    /// Stable points not near a Type II singularity.
+    pub without_type_ii: RcondStats,
+    /// Points of `without_type_ii`.
+    pub without_type_ii_count: usize,
+    /// Stable points near no singularity (Type I, Type II or leg).
+    pub regular: RcondStats,
+    /// Points of `regular`.
+    pub regular_count: usize,
+}
+
+impl RcondVariants {
+    fn of<'a>(points: impl Iterator<Item = &'a PointMetrics> + Clone) -> Self {
+        let no_type_ii = points
+            .clone()
+            .filter(|m| m.stable && !m.singularity.type_ii);
+        let regular = points.clone().filter(|m| {
+            let s = &m.singularity;
+            m.stable && !(s.type_i || s.type_ii || s.leg)
+        });
+        Self {
+            all: RcondStats::of(points.clone().map(|m| &m.rcond)),
+            all_count: points.count(),
+            without_type_ii: RcondStats::of(no_type_ii.clone().map(|m| &m.rcond)),
+            without_type_ii_count: no_type_ii.count(),
+            regular: RcondStats::of(regular.clone().map(|m| &m.rcond)),
+            regular_count: regular.count(),
+        }
+    }
+}
+
+/// Tab. III's statistics two ways. The paper averages over its ray samples (denser near
+/// each plane's origin, so the centre weighs more); per cell every Δ³ of volume weighs
+/// the same.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct TableIii {
+    /// Over the cells of the map that are reachable or unstable (collision cells
+    /// excluded), each once (volume-weighted).
+    pub per_cell: RcondVariants,
+    /// Over every solved, collision-free point: the plane origins and every ray sample,
+    /// including the unstable points that ended rays.
+    pub per_sample: RcondVariants,
+}
+
 /// Fractions of the reachable cells near each kind of singularity (0 when empty).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
 pub struct Fractions {
@@ -316,8 +378,30 @@ pub struct RayEnds {
     pub actuation_limits: usize,
     /// A collision ([`CollisionPolicy::Stop`]).
     pub collision: usize,
+    /// The equilibrium became unstable with the actuators held.
+    pub unstable: usize,
     /// The ray reached the geometric bound of the design (should not happen).
     pub max_radius: usize,
+}
+
+impl RayEnds {
+    fn count(&mut self, end: End) {
+        match end {
+            End::NotConverged => self.not_converged += 1,
+            End::Limits => self.actuation_limits += 1,
+            End::Collision => self.collision += 1,
+            End::Unstable => self.unstable += 1,
+            End::MaxRadius => self.max_radius += 1,
+        }
+    }
+
+    fn add(&mut self, other: &Self) {
+        self.not_converged += other.not_converged;
+        self.actuation_limits += other.actuation_limits;
+        self.collision += other.collision;
+        self.unstable += other.unstable;
+        self.max_radius += other.max_radius;
+    }
 }
 
 /// Why the path along z from the home configuration stopped.
@@ -332,6 +416,8 @@ pub enum PathEnd {
     ActuationLimits,
     /// A step collided ([`CollisionPolicy::Stop`]).
     Collision,
+    /// A step reached an unstable equilibrium.
+    Unstable,
     /// The home configuration itself is invalid (out of limits or colliding).
     InvalidHome,
 }
@@ -342,6 +428,7 @@ impl From<End> for PathEnd {
             End::NotConverged | End::MaxRadius => Self::NotConverged,
             End::Limits => Self::ActuationLimits,
             End::Collision => Self::Collision,
+            End::Unstable => Self::Unstable,
         }
     }
 }
@@ -377,6 +464,10 @@ pub struct WorkspaceSummary {
     pub rcond_scaled: RcondStats,
     /// Minimum tendon tension over the reachable cells \[N\].
     pub min_tension: Stats,
+    /// The rcond statistics of paper Tab. III in the variants needed to hold them against
+    /// the paper: per cell and per ray sample, with and without near-singular and
+    /// unstable points.
+    pub table_iii: TableIii,
     /// Fractions of reachable cells near singularities.
     pub fractions: Fractions,
     /// Why rays ended.
@@ -503,17 +594,18 @@ pub fn sweep_workspace_with_progress(
         })
         .collect();
     let mut points = Vec::new();
+    let mut samples = Vec::new();
     let mut ray_ends = RayEnds::default();
     for sweep in sweeps {
         let sweep = sweep?;
         points.extend(sweep.points);
-        ray_ends.not_converged += sweep.ray_ends.not_converged;
-        ray_ends.actuation_limits += sweep.ray_ends.actuation_limits;
-        ray_ends.collision += sweep.ray_ends.collision;
-        ray_ends.max_radius += sweep.ray_ends.max_radius;
+        ray_ends.add(&sweep.ray_ends);
+        samples.extend(sweep.samples);
     }
     let wall = start.elapsed().as_secs_f64();
-    let summary = summarize(settings, &planes, n_rays, &points, ray_ends, &work, wall);
+    let summary = summarize(
+        settings, &planes, n_rays, &points, &samples, ray_ends, &work, wall,
+    );
     Ok(WorkspaceMap {
         settings: settings.clone(),
         n_actuators: model.n_actuators(),
@@ -523,9 +615,11 @@ pub fn sweep_workspace_with_progress(
     })
 }
 
-/// The cells of one plane and why its rays ended.
+/// The cells of one plane, the measures of every solved point (origin and ray samples,
+/// colliding ones excluded) and why its rays ended.
 struct PlaneSweep {
     points: Vec<WorkspacePoint>,
+    samples: Vec<PointMetrics>,
     ray_ends: RayEnds,
 }
 
@@ -556,33 +650,29 @@ impl PlaneJob<'_> {
             .collect();
         let mut ray_ends = RayEnds::default();
         for r in &rays {
-            match r.end {
-                End::NotConverged => ray_ends.not_converged += 1,
-                End::Limits => ray_ends.actuation_limits += 1,
-                End::Collision => ray_ends.collision += 1,
-                End::MaxRadius => ray_ends.max_radius += 1,
-            }
+            ray_ends.count(r.end);
         }
-        let reps = representatives(settings.step, origin, &rays);
-        let points = reps
-            .par_iter()
-            .map_init(
-                || self.worker.clone(),
-                |w, rep| {
-                    let metrics =
-                        point_metrics(&mut w.solver, &rep.sample.state, &settings.analysis)?;
-                    Ok(WorkspacePoint {
-                        cell: [rep.cell.1, rep.cell.0, k],
-                        position: rep.sample.state.position,
-                        tensions: tensions(model, &rep.sample.state),
-                        state: rep.sample.state.clone(),
-                        collision: rep.sample.collision,
-                        metrics,
-                    })
-                },
-            )
-            .collect::<Result<Vec<_>, Error>>()?;
-        Ok(PlaneSweep { points, ray_ends })
+        let samples = std::iter::once(origin)
+            .chain(rays.iter().flat_map(|r| r.samples.iter()))
+            .filter(|s| !s.collision)
+            .map(|s| s.metrics)
+            .collect();
+        let points = representatives(settings.step, origin, &rays)
+            .into_iter()
+            .map(|rep| WorkspacePoint {
+                cell: [rep.cell.1, rep.cell.0, k],
+                position: rep.sample.state.position,
+                tensions: tensions(model, &rep.sample.state),
+                state: rep.sample.state.clone(),
+                collision: rep.sample.collision,
+                metrics: rep.sample.metrics,
+            })
+            .collect();
+        Ok(PlaneSweep {
+            points,
+            samples,
+            ray_ends,
+        })
     }
 }
 
@@ -614,11 +704,25 @@ impl Work {
     }
 }
 
-/// One solved point of a ray (or a plane origin).
+/// One solved point of a ray (or a plane origin) and its measures.
 #[derive(Debug, Clone)]
 struct Sample {
     state: RobotState,
     collision: bool,
+    metrics: PointMetrics,
+}
+
+impl Sample {
+    /// Why this point ends its ray (or the path to the planes), if it does.
+    fn end(&self, collisions: CollisionPolicy) -> Option<End> {
+        if !self.metrics.stable {
+            Some(End::Unstable)
+        } else if self.collision && collisions == CollisionPolicy::Stop {
+            Some(End::Collision)
+        } else {
+            None
+        }
+    }
 }
 
 /// Why a ray or path ended.
@@ -627,6 +731,7 @@ enum End {
     NotConverged,
     Limits,
     Collision,
+    Unstable,
     MaxRadius,
 }
 
@@ -642,6 +747,7 @@ struct Ray {
 struct Worker {
     solver: Solver,
     collisions: CollisionChecker,
+    analysis: AnalysisSettings,
 }
 
 impl Worker {
@@ -650,10 +756,14 @@ impl Worker {
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
         let collisions = CollisionChecker::new(solver.model());
-        Self { solver, collisions }
+        Self {
+            solver,
+            collisions,
+            analysis: settings.analysis,
+        }
     }
 
-    /// Validity of a solved state: actuation limits, then collisions.
+    /// Validity of a solved state (actuation limits, then collisions) and its measures.
     fn classify(&mut self, model: &Model, state: RobotState) -> Result<Sample, End> {
         if !within_limits(model, &state.q) {
             return Err(End::Limits);
@@ -663,7 +773,13 @@ impl Worker {
             .check(model, &state)
             .map_err(|_| End::NotConverged)?
             .is_some();
-        Ok(Sample { state, collision })
+        let metrics = point_metrics(&mut self.solver, &state, &self.analysis)
+            .map_err(|_| End::NotConverged)?;
+        Ok(Sample {
+            state,
+            collision,
+            metrics,
+        })
     }
 
     /// One path step to `position`: IK from a prediction extrapolated from the last
@@ -686,7 +802,7 @@ impl Worker {
         let predicted = predict(model, history);
         let guess = predicted.as_ref().unwrap_or(last);
         // The full budget only if the first iterations made progress.
-        self.solver.settings.progress_check = Some(ProgressCheck {
+        self.solver.settings.progress_check = (history.len() > 1).then_some(ProgressCheck {
             iterations: PROBE_ITERATIONS,
             factor: PROBE_PROGRESS,
         });
@@ -696,6 +812,44 @@ impl Worker {
         let sol = result.map_err(|_| End::NotConverged)?;
         work.add(&sol.report);
         self.classify(model, sol.state)
+    }
+
+    /// A ray step from the solution `last` to `position` in [`SUBSTEPS`] equal substeps,
+    /// each predicted from the substeps before: the fallback where the whole step does
+    /// not converge. Steps that switch a tendon pair's taut side near where the
+    /// leg-singularity lines of several legs meet need it: a plane origin can lie there
+    /// (the reference design at z ≈ −54 mm: every leg's slack tendon within 8 µm of
+    /// taut), and the first step then failed in 109 of 180 directions (1142 cells against
+    /// 2441 and 2582 on the neighbouring planes; 2535 with the fallback); on z = −42 mm
+    /// the rays crossing three such meeting points failed at their fourth step (2489
+    /// cells against 2747 and 2820).
+    fn step_in_substeps(
+        &mut self,
+        model: &Model,
+        rotation: &Matrix3<f64>,
+        last: &RobotState,
+        position: Vector3<f64>,
+        work: &Work,
+    ) -> Result<Sample, End> {
+        let start = Vector3::from(last.position);
+        let mut path = vec![last.clone()];
+        for m in 1..=SUBSTEPS {
+            let t = m as f64 / SUBSTEPS as f64;
+            let from = path.len().saturating_sub(PREDICTOR_POINTS);
+            let history: Vec<&RobotState> = path[from..].iter().collect();
+            let sample = self.step(
+                model,
+                rotation,
+                start + (position - start) * t,
+                &history,
+                work,
+            )?;
+            if m == SUBSTEPS {
+                return Ok(sample);
+            }
+            path.push(sample.state);
+        }
+        unreachable!("the loop returns at its last substep")
     }
 
     /// Ray j from the plane origin `origin`.
@@ -721,15 +875,27 @@ impl Worker {
                 .chain(samples.iter().map(|s| &s.state))
                 .skip((n + 1).saturating_sub(PREDICTOR_POINTS))
                 .collect();
-            match self.step(model, &rotation, position, &history, work) {
-                Ok(sample) => {
-                    let stop = sample.collision && settings.collisions == CollisionPolicy::Stop;
+            let result = match self.step(model, &rotation, position, &history, work) {
+                Err(End::NotConverged) => {
+                    let last = samples.last().unwrap_or(origin);
+                    self.step_in_substeps(model, &rotation, &last.state, position, work)
+                }
+                result => result,
+            };
+            match result {
+                Ok(mut sample) => {
+                    let previous = samples.last_mut();
+                    let before = previous.as_ref().map_or(&origin.state, |p| &p.state);
+                    if taut_side_changed(model, before, &sample.state) {
+                        flag_leg_switch(&mut sample.metrics);
+                        if let Some(p) = previous {
+                            flag_leg_switch(&mut p.metrics);
+                        }
+                    }
+                    let end = sample.end(settings.collisions);
                     samples.push(sample);
-                    if stop {
-                        return Ray {
-                            samples,
-                            end: End::Collision,
-                        };
+                    if let Some(end) = end {
+                        return Ray { samples, end };
                     }
                 }
                 Err(end) => return Ray { samples, end },
@@ -753,6 +919,9 @@ impl Worker {
 const PROBE_ITERATIONS: usize = 15;
 /// See [`PROBE_ITERATIONS`].
 const PROBE_PROGRESS: f64 = 10.0;
+
+/// Substeps of a ray step where the whole step fails ([`Worker::step_in_substeps`]).
+const SUBSTEPS: usize = 4;
 
 /// Solutions used by the predictor of a path step: the last three give a quadratic
 /// extrapolation.
@@ -844,6 +1013,33 @@ fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s
     }
 }
 
+/// Whether some tendon pair has one taut tendon in `a` and the other one in `b` (its taut
+/// side changed: a leg-singularity line lies between the two solutions, paper Fig. 9).
+/// A pair with both tendons taut (pretension) or both slack has no side.
+fn taut_side_changed(model: &Model, a: &RobotState, b: &RobotState) -> bool {
+    let nu = model.n_leg_unknowns();
+    let side = |s: &RobotState, leg: usize, pair: usize| {
+        let g = &s.y_u[leg * nu + 2 * pair..];
+        match (tension(g[0]) > 0.0, tension(g[1]) > 0.0) {
+            (true, false) => Some(0),
+            (false, true) => Some(1),
+            _ => None,
+        }
+    };
+    (0..3).any(|leg| {
+        (0..model.pairs).any(|pair| match (side(a, leg, pair), side(b, leg, pair)) {
+            (Some(x), Some(y)) => x != y,
+            _ => false,
+        })
+    })
+}
+
+/// Marks a point beside a taut-side change as near a leg singularity.
+fn flag_leg_switch(m: &mut PointMetrics) {
+    m.leg_switch = true;
+    m.singularity.leg = true;
+}
+
 /// Every |q_b| and |q_t| within its limit (MODEL.md §1 actuation limits).
 fn within_limits(model: &Model, q: &[f64]) -> bool {
     let per_leg = model.pairs + 1;
@@ -903,7 +1099,7 @@ fn reach_planes(
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state) {
-        Ok(s) if !(s.collision && settings.collisions == CollisionPolicy::Stop) => s,
+        Ok(s) if s.end(settings.collisions).is_none() => s,
         _ => {
             return Ok(Planes {
                 origins: Vec::new(),
@@ -925,13 +1121,15 @@ fn reach_planes(
             let from = path.len().saturating_sub(PREDICTOR_POINTS);
             let history: Vec<&RobotState> = path[from..].iter().collect();
             match w.step(model, &rotation, position, &history, work) {
-                Ok(s) if !(s.collision && settings.collisions == CollisionPolicy::Stop) => {
+                Ok(s) => {
+                    if let Some(end) = s.end(settings.collisions) {
+                        return (out, end.into());
+                    }
                     path.push(s.state.clone());
                     if range.contains(&k) {
                         out.push((k, s));
                     }
                 }
-                Ok(_) => return (out, PathEnd::Collision),
                 Err(end) => return (out, end.into()),
             }
         }
@@ -962,18 +1160,18 @@ struct Representative<'a> {
 
 /// A sample competing to represent a cell.
 struct Candidate<'a> {
-    collision: bool,
+    /// 0 valid, 1 colliding, 2 unstable (lower is better).
+    rank: u8,
     /// Squared distance to the cell centre in units of Δ².
     distance2: f64,
     sample: &'a Sample,
 }
 
 impl Candidate<'_> {
-    /// Valid before colliding, then nearer the centre; on a tie the earlier sample (in
+    /// Valid before colliding before unstable, then nearer the centre; on a tie the earlier sample (in
     /// (ray, step) order) stays.
     fn better_than(&self, other: &Self) -> bool {
-        (other.collision && !self.collision)
-            || (self.collision == other.collision && self.distance2 < other.distance2)
+        self.rank < other.rank || (self.rank == other.rank && self.distance2 < other.distance2)
     }
 }
 
@@ -988,8 +1186,13 @@ fn representatives<'a>(step: f64, origin: &'a Sample, rays: &'a [Ray]) -> Vec<Re
             sample.state.position[1] / step,
         );
         let (i, j) = (x.round(), y.round());
+        let rank = if !sample.metrics.stable {
+            2
+        } else {
+            u8::from(sample.collision)
+        };
         let candidate = Candidate {
-            collision: sample.collision,
+            rank,
             distance2: (x - i).powi(2) + (y - j).powi(2),
             sample,
         };
@@ -1006,11 +1209,13 @@ fn representatives<'a>(step: f64, origin: &'a Sample, rays: &'a [Ray]) -> Vec<Re
         .collect()
 }
 
+#[allow(clippy::too_many_arguments)]
 fn summarize(
     settings: &WorkspaceSettings,
     planes: &Planes,
     n_rays: usize,
     points: &[WorkspacePoint],
+    samples: &[PointMetrics],
     ray_ends: RayEnds,
     work: &Work,
     wall: f64,
@@ -1028,7 +1233,11 @@ fn summarize(
         near_type_i: count(&|s| s.type_i),
         near_type_ii: count(&|s| s.type_ii),
         near_leg_singularity: count(&|s| s.leg),
-        collision: points.len() - reachable.len(),
+        collision: points
+            .iter()
+            .filter(|p| p.collision && p.metrics.stable)
+            .count(),
+        unstable: points.iter().filter(|p| !p.metrics.stable).count(),
     };
     let cell = settings.step.powi(3);
     let volume = Categories {
@@ -1038,6 +1247,7 @@ fn summarize(
         near_type_ii: counts.near_type_ii as f64 * cell,
         near_leg_singularity: counts.near_leg_singularity as f64 * cell,
         collision: counts.collision as f64 * cell,
+        unstable: counts.unstable as f64 * cell,
     };
     let fraction = |n: usize| {
         if reachable.is_empty() {
@@ -1066,6 +1276,15 @@ fn summarize(
         rcond: RcondStats::of(reachable.iter().map(|p| &p.metrics.rcond)),
         rcond_scaled: RcondStats::of(reachable.iter().map(|p| &p.metrics.rcond_scaled)),
         min_tension: Stats::of(reachable.iter().map(|p| p.metrics.min_tension)),
+        table_iii: TableIii {
+            per_cell: RcondVariants::of(
+                points
+                    .iter()
+                    .filter(|p| !p.collision || !p.metrics.stable)
+                    .map(|p| &p.metrics),
+            ),
+            per_sample: RcondVariants::of(samples.iter()),
+        },
         fractions: Fractions {
             near_type_i: fraction(counts.near_type_i),
             near_type_ii: fraction(counts.near_type_ii),
