@@ -227,10 +227,10 @@ fn the_outputs_load_and_report_the_comparison() {
             .next()
             .unwrap()
             .split(',')
-            .take(14)
+            .take(15)
             .collect::<Vec<_>>()
             .join(","),
-        "id,role,best_composite,generation,alpha,beta,leg_length,tendon_offset,platform_side,coupling_offset,pretension,workspace_volume,mean_rcond_j_p,singularity_margin"
+        "id,role,best_composite,generation,alpha,beta,leg_length,tendon_offset,platform_side,coupling_offset,pretension,psi,workspace_volume,mean_rcond_j_p,singularity_margin"
     );
     assert!(lines.next().unwrap().starts_with("0,reference,0,,"));
     assert_eq!(lines.count(), result.pareto_front().len());
