@@ -40,7 +40,10 @@ fn main() {
         max_dp * 1e3,
         max_dr.to_degrees()
     );
-    let d = design("lilge2022_redundant.ron");
+    // The ψ = 0 twin: the same robot as the reference 9-DoF design (with four tendons at
+    // 90° a roll of 90° only renames the pairs, MODEL.md §1), whose pair labels the
+    // sequence is written for.
+    let d = design("lilge2022_redundant_psi0.ron");
     let mut solver = Solver::new(&d);
     let qs = fk_motion_sequence(solver.model().pairs, 1000);
     let (steps, stats) = run_trajectory(&mut solver, &Targets::Actuations(qs), &w);

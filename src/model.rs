@@ -139,6 +139,19 @@ impl Model {
         d
     }
 
+    /// Every |q_b| and |q_t| within its actuation limit (MODEL.md §1).
+    pub fn within_limits(&self, q: &[f64]) -> bool {
+        let per_leg = self.pairs + 1;
+        q.iter().enumerate().all(|(i, x)| {
+            let limit = if i % per_leg == self.pairs {
+                self.limits.base_translation
+            } else {
+                self.limits.tendon_displacement
+            };
+            x.abs() <= limit
+        })
+    }
+
     /// Base translation q_t of leg i.
     pub fn translation(&self, leg: usize, q: &[f64]) -> f64 {
         q[leg * (self.pairs + 1) + self.pairs]

@@ -765,7 +765,7 @@ impl Worker {
 
     /// Validity of a solved state (actuation limits, then collisions) and its measures.
     fn classify(&mut self, model: &Model, state: RobotState) -> Result<Sample, End> {
-        if !within_limits(model, &state.q) {
+        if !model.within_limits(&state.q) {
             return Err(End::Limits);
         }
         let collision = self
@@ -1038,19 +1038,6 @@ fn taut_side_changed(model: &Model, a: &RobotState, b: &RobotState) -> bool {
 fn flag_leg_switch(m: &mut PointMetrics) {
     m.leg_switch = true;
     m.singularity.leg = true;
-}
-
-/// Every |q_b| and |q_t| within its limit (MODEL.md §1 actuation limits).
-fn within_limits(model: &Model, q: &[f64]) -> bool {
-    let per_leg = model.pairs + 1;
-    q.iter().enumerate().all(|(i, x)| {
-        let limit = if i % per_leg == model.pairs {
-            model.limits.base_translation
-        } else {
-            model.limits.tendon_displacement
-        };
-        x.abs() <= limit
-    })
 }
 
 /// A bound on how far the platform centre can be from the origin: the farthest base
