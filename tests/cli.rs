@@ -548,11 +548,24 @@ fn analyze_json_has_the_documented_keys_no_nan_and_writes_plots() {
         "lambda_ik",
         "lambda_c",
         "thresholds",
+        "stability",
         "state",
         "plots",
     ] {
         assert!(v.get(key).is_some(), "missing {key}");
     }
+    let st = &v["stability"];
+    assert_eq!(st["stable"], serde_json::Value::Bool(true));
+    for (key, n) in [
+        ("eigenvalues", 6),
+        ("eigenvalues_c_p", 3),
+        ("eigenvalues_c_o", 3),
+    ] {
+        let e = st[key].as_array().unwrap();
+        assert_eq!(e.len(), n, "{key}");
+        assert!(e.iter().all(|x| x.as_f64().unwrap() > 0.0), "{key}: {e:?}");
+    }
+    assert!(st["asymmetry"].as_f64().unwrap() < 1e-4);
     let (plots, rest): (Vec<_>, Vec<_>) = v
         .as_object()
         .unwrap()
@@ -603,9 +616,26 @@ fn analyze_of_an_fk_solution_prints_text_and_reports_bad_input() {
         "rcond          raw          scaled",
         "singular: type I",
         "C_p [m/N]",
+        "stability (actuators held): stable",
     ] {
         assert!(out.contains(part), "{out}");
     }
+    // The −45° twist of the ψ = 0 design, solved cold, is an unstable equilibrium.
+    let psi0 = design_path("lilge2022_psi0.ron").display().to_string();
+    let o = tdpcr(&[
+        "analyze",
+        &psi0,
+        "--position",
+        "0,0,0",
+        "--rotvec",
+        "0,0,-0.7853981633974483",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("stability (actuators held): UNSTABLE"),
+        "{out}"
+    );
     let o = tdpcr(&["analyze", &design(), "--q", "0,0,0"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
