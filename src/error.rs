@@ -93,6 +93,86 @@ pub enum DesignError {
     },
 }
 
+/// Why a solve stopped without reaching its tolerance. `Display` gives the sentence of
+/// the error messages; [`StopReason::as_str`] (and serde) a stable snake_case name for
+/// scripts (the CLI's JSON key `stop_reason`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// [`crate::newton::NewtonSettings::max_iterations`] iterations done.
+    IterationLimit,
+    /// A [`crate::newton::ProgressCheck`] failed: too little progress in the first
+    /// iterations (e.g. a step beyond a fold).
+    TooLittleProgress,
+    /// The trust region shrank to nothing: no step reduces the residual.
+    TrustRegionCollapsed,
+    /// The least-norm IK step of a redundant design is singular (\[B_q B_u\] lost rank).
+    SingularLeastNormStep,
+    /// The backtracking line search of a least-norm or within-limits IK step failed.
+    LineSearchFailed,
+    /// The QP of a within-limits IK step could not be set up or solved.
+    QpStepFailed,
+    /// No step within the actuation limits satisfies the linearized boundary conditions
+    /// (the pose is out of reach within the limits?).
+    NoStepWithinLimits,
+    /// The continuation from the start towards the target stalled (a fold, or no
+    /// equilibrium).
+    ContinuationStalled,
+    /// Some steps of a trajectory failed (the CLI's summary of a trajectory).
+    TrajectoryStepsFailed,
+}
+
+impl StopReason {
+    /// Every reason, in declaration order.
+    pub const ALL: [Self; 9] = [
+        Self::IterationLimit,
+        Self::TooLittleProgress,
+        Self::TrustRegionCollapsed,
+        Self::SingularLeastNormStep,
+        Self::LineSearchFailed,
+        Self::QpStepFailed,
+        Self::NoStepWithinLimits,
+        Self::ContinuationStalled,
+        Self::TrajectoryStepsFailed,
+    ];
+
+    /// The stable snake_case name, as serialized.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::IterationLimit => "iteration_limit",
+            Self::TooLittleProgress => "too_little_progress",
+            Self::TrustRegionCollapsed => "trust_region_collapsed",
+            Self::SingularLeastNormStep => "singular_least_norm_step",
+            Self::LineSearchFailed => "line_search_failed",
+            Self::QpStepFailed => "qp_step_failed",
+            Self::NoStepWithinLimits => "no_step_within_limits",
+            Self::ContinuationStalled => "continuation_stalled",
+            Self::TrajectoryStepsFailed => "trajectory_steps_failed",
+        }
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::IterationLimit => "iteration limit reached",
+            Self::TooLittleProgress => "too little progress in the first iterations",
+            Self::TrustRegionCollapsed => "trust region collapsed (no further progress)",
+            Self::SingularLeastNormStep => "singular least-norm step ([B_q B_u] lost rank)",
+            Self::LineSearchFailed => "line search failed",
+            Self::QpStepFailed => "the QP step failed (clarabel stopped without a solution)",
+            Self::NoStepWithinLimits => {
+                "no step within the actuation limits satisfies the linearized boundary \
+                 conditions (pose out of reach within the limits?)"
+            }
+            Self::ContinuationStalled => {
+                "continuation towards the target stalled (a fold or no equilibrium?)"
+            }
+            Self::TrajectoryStepsFailed => "some trajectory steps failed (see converged = false)",
+        })
+    }
+}
+
 /// A solve or an integration that failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SolveError {
@@ -107,8 +187,8 @@ pub enum SolveError {
         residual_norm: f64,
         /// Requested tolerance.
         tolerance: f64,
-        /// Why it stopped (iteration limit, trust region collapsed, ...).
-        reason: &'static str,
+        /// Why it stopped.
+        reason: StopReason,
     },
     /// A NaN or infinity appeared.
     #[error("non-finite value in {stage}")]
@@ -144,4 +224,22 @@ pub enum Error {
         /// Underlying I/O error.
         source: std::io::Error,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StopReason;
+
+    #[test]
+    fn stop_reasons_serialize_as_their_stable_names_and_read_as_sentences() {
+        for r in StopReason::ALL {
+            let json = serde_json::to_string(&r).unwrap();
+            assert_eq!(json, format!("\"{}\"", r.as_str()));
+            let sentence = r.to_string();
+            assert!(
+                sentence.contains(' ') && sentence != r.as_str(),
+                "{sentence}"
+            );
+        }
+    }
 }

@@ -21,7 +21,7 @@ use crate::boundary::{
     boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns,
 };
 use crate::design::Tdpcr;
-use crate::error::{Error, SolveError, Violations};
+use crate::error::{Error, SolveError, StopReason, Violations};
 use crate::linalg::DenseLu;
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
@@ -451,7 +451,7 @@ impl Solver {
                     iterations: report.iterations,
                     residual_norm: report.residual_norm,
                     tolerance: settings.tolerance,
-                    reason: "singular least-norm step ([B_q B_u] lost rank)",
+                    reason: StopReason::SingularLeastNormStep,
                 });
             }
             lu.solve_in_place(&mut rhs);
@@ -473,7 +473,7 @@ impl Solver {
                     iterations: report.iterations,
                     residual_norm: report.residual_norm,
                     tolerance: settings.tolerance,
-                    reason: "line search failed",
+                    reason: StopReason::LineSearchFailed,
                 });
             }
             report.iterations += 1;
@@ -629,7 +629,7 @@ impl Solver {
                                 iterations: total.iterations,
                                 residual_norm,
                                 tolerance,
-                                reason: "continuation towards the target stalled (a fold or no equilibrium?)",
+                                reason: StopReason::ContinuationStalled,
                             },
                             other => other,
                         });

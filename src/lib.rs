@@ -47,4 +47,4 @@ pub mod trajectory;
 pub mod workspace;
 
 pub use design::{Leg, Tdcr, Tdpcr};
-pub use error::{DesignError, SolveError};
+pub use error::{DesignError, SolveError, StopReason};

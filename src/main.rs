@@ -476,6 +476,8 @@ struct FailureOutput {
     error: String,
     iterations: Option<usize>,
     residual_norm: Option<f64>,
+    /// Why Newton stopped, as a stable snake_case name (`tdpcr::StopReason`).
+    stop_reason: Option<tdpcr::StopReason>,
 }
 
 /// A solver configured from the shared options, and the extra wrench.
@@ -539,19 +541,21 @@ fn report(solver: &Solver, result: Result<Solution, Error>, format: Format) -> R
         Ok(sol) => sol,
         Err(e) => {
             if let (Format::Json, Error::Solve(se)) = (format, &e) {
-                let (iterations, residual_norm) = match se {
+                let (iterations, residual_norm, stop_reason) = match se {
                     tdpcr::SolveError::NotConverged {
                         iterations,
                         residual_norm,
+                        reason,
                         ..
-                    } => (Some(*iterations), Some(*residual_norm)),
-                    _ => (None, None),
+                    } => (Some(*iterations), Some(*residual_norm), Some(*reason)),
+                    _ => (None, None, None),
                 };
                 let out = FailureOutput {
                     converged: false,
                     error: e.to_string(),
                     iterations,
                     residual_norm,
+                    stop_reason,
                 };
                 println!(
                     "{}",
@@ -864,7 +868,7 @@ fn run_trajectory(args: &TrajectoryArgs) -> Result<(), Error> {
             iterations: 0,
             residual_norm: f64::NAN,
             tolerance: args.solve.newton.tolerance,
-            reason: "some trajectory steps failed (see converged = false)",
+            reason: tdpcr::error::StopReason::TrajectoryStepsFailed,
         }));
     }
     Ok(())

@@ -14,7 +14,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::SolveError;
+use crate::error::{SolveError, StopReason};
 use crate::linalg::DenseLu;
 
 /// A square system of nonlinear equations F(x) = 0 with its exact Jacobian.
@@ -82,13 +82,13 @@ impl NewtonSettings {
     /// the reason (iteration limit, or a failed [`ProgressCheck`] given the first residual
     /// norm `first` and the current `norm`), or `None` to go on. Every solver loop that
     /// takes these settings asks this.
-    pub fn stop_reason(&self, iterations: usize, first: f64, norm: f64) -> Option<&'static str> {
+    pub fn stop_reason(&self, iterations: usize, first: f64, norm: f64) -> Option<StopReason> {
         if iterations >= self.max_iterations {
-            return Some("iteration limit reached");
+            return Some(StopReason::IterationLimit);
         }
         match self.progress_check {
             Some(check) if iterations == check.iterations && first < check.factor * norm => {
-                Some("too little progress in the first iterations")
+                Some(StopReason::TooLittleProgress)
             }
             _ => None,
         }
@@ -467,7 +467,7 @@ pub fn solve<S: NonlinearSystem>(
                 return Err(not_converged(
                     iterations,
                     norm,
-                    "trust region collapsed (no further progress)",
+                    StopReason::TrustRegionCollapsed,
                 ));
             }
         };
@@ -590,7 +590,7 @@ mod tests {
                 iterations, reason, ..
             } => {
                 assert_eq!(iterations, 4);
-                assert!(reason.contains("progress"), "{reason}");
+                assert_eq!(reason, StopReason::TooLittleProgress);
             }
             e => panic!("unexpected {e}"),
         }

@@ -42,7 +42,7 @@ use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
     convert_tendon_unknowns,
 };
-use crate::error::SolveError;
+use crate::error::{SolveError, StopReason};
 use crate::kinetostatics::{
     LEAST_NORM_Y_WEIGHT, RobotState, SOLVER_TENDON_UNKNOWN, backtrack, row_weights,
 };
@@ -218,7 +218,7 @@ impl Iteration<'_> {
                 step,
                 &mut report,
             ) {
-                return Err(not_converged(&report, "line search failed"));
+                return Err(not_converged(&report, StopReason::LineSearchFailed));
             }
             report.iterations += 1;
         }
@@ -306,7 +306,7 @@ impl StepQp {
     }
 
     /// The step z: clarabel's solution, polished on its active set.
-    fn solve(&self) -> Result<DVector<f64>, &'static str> {
+    fn solve(&self) -> Result<DVector<f64>, StopReason> {
         let (m, n) = self.a_eq.shape();
         let k = self.g.nrows();
         let mut a = DMatrix::zeros(m + k, n);
@@ -326,17 +326,15 @@ impl StepQp {
             &[ZeroConeT(m), NonnegativeConeT(k)],
             settings,
         )
-        .map_err(|_| "the QP step could not be set up")?;
+        .map_err(|_| StopReason::QpStepFailed)?;
         solver.solve();
         let sol = &solver.solution;
         match sol.status {
             SolverStatus::Solved | SolverStatus::AlmostSolved => {}
             SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
-                return Err(
-                    "no step within the actuation limits satisfies the linearized boundary conditions (pose out of reach within the limits?)",
-                );
+                return Err(StopReason::NoStepWithinLimits);
             }
-            _ => return Err("the QP step failed (clarabel stopped without a solution)"),
+            _ => return Err(StopReason::QpStepFailed),
         }
         // Active limits: slack below its multiplier (complementarity).
         let active: Vec<usize> = (0..k).filter(|&i| sol.s[m + i] < sol.z[m + i]).collect();

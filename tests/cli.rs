@@ -289,6 +289,17 @@ fn fk_and_ik_report_bad_input_and_failures() {
     assert_eq!(o.status.code(), Some(1));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["converged"], serde_json::Value::Bool(false));
+    // A stable name of why Newton stopped, beside the message.
+    let reason = v["stop_reason"].as_str().unwrap();
+    assert!(
+        [
+            "iteration_limit",
+            "trust_region_collapsed",
+            "continuation_stalled"
+        ]
+        .contains(&reason),
+        "{reason}"
+    );
     assert!(stderr(&o).contains("did not converge"), "{}", stderr(&o));
 }
 
