@@ -39,6 +39,7 @@ pub mod linalg;
 pub mod model;
 pub mod newton;
 pub mod output;
+pub mod random;
 pub mod redundancy;
 pub mod rod;
 pub mod sampling;

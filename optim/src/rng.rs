@@ -1,14 +1,16 @@
-//! A small deterministic random number generator: SplitMix64 for uniform numbers, the
-//! Box–Muller transform for standard normal ones. The same seed gives the same stream on
+//! The optimizer's random numbers: uniform ones from tdpcr's one seeded generator
+//! ([`tdpcr::random::SplitMix64`]), standard normal ones by the Box–Muller transform. The same seed gives the same stream on
 //! every platform and whatever the number of threads (only the optimizer's main thread
 //! draws numbers).
 
 use std::f64::consts::PI;
 
-/// SplitMix64 (Steele, Lea & Flood 2014) with a cached second Box–Muller variate.
+use tdpcr::random::SplitMix64;
+
+/// SplitMix64 with a cached second Box–Muller variate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Rng {
-    state: u64,
+    bits: SplitMix64,
     spare: Option<f64>,
 }
 
@@ -16,18 +18,14 @@ impl Rng {
     /// The stream of `seed`.
     pub fn new(seed: u64) -> Self {
         Self {
-            state: seed,
+            bits: SplitMix64::new(seed),
             spare: None,
         }
     }
 
     /// The next 64 random bits.
     pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.bits.next_u64()
     }
 
     /// Uniform in the open interval (0, 1) (53 random bits, never 0 or 1).

@@ -44,27 +44,9 @@ pub fn bare_leg() -> Leg {
     }
 }
 
-/// Deterministic pseudo-random numbers (SplitMix64), so failures reproduce.
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+/// Deterministic pseudo-random numbers (the library's SplitMix64), so failures reproduce.
+#[allow(unused_imports)]
+pub use tdpcr::random::SplitMix64 as Rng;
 
 /// Worst entry-wise mismatch between an analytic and a finite-difference column block.
 #[derive(Debug, Clone, Copy, PartialEq)]
