@@ -6,12 +6,25 @@ use std::fs;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
+/// A file that could not be written, and why. Every error type of the crate and of its
+/// optimizer converts from it (`?` at every call site).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {path}: {source}")]
+pub struct WriteError {
+    /// The file.
+    pub path: PathBuf,
+    /// The I/O error of creating, writing, syncing or renaming.
+    #[source]
+    pub source: io::Error,
+}
+
 /// Writes `bytes` to `path` through `.<name>.<pid>.tmp` in the same directory, synced to
-/// disk, then renamed over `path`; the temporary file is removed on any failure.
+/// disk, then renamed over `path`; the temporary file is removed on any failure. The one
+/// atomic writer of tdpcr's outputs.
 ///
 /// # Errors
-/// The I/O error of creating, writing, syncing or renaming.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
+/// [`WriteError`] with the path and the I/O error.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -26,7 +39,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
     }
-    result
+    result.map_err(|source| WriteError {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Lets a command-line program end quietly, like other Unix tools, when the reader of its

@@ -71,6 +71,15 @@ pub enum OptimError {
     Cmaes(#[from] CmaesError),
 }
 
+impl From<tdpcr::output::WriteError> for OptimError {
+    fn from(e: tdpcr::output::WriteError) -> Self {
+        Self::Io {
+            path: e.path,
+            source: e.source,
+        }
+    }
+}
+
 impl OptimError {
     /// [`OptimError::Io`] for `path`.
     pub fn io(path: &Path, source: std::io::Error) -> Self {

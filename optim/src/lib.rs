@@ -27,7 +27,6 @@ pub mod config;
 pub mod error;
 pub mod evaluate;
 pub mod figures;
-pub mod files;
 pub mod objectives;
 pub mod pareto;
 pub mod report;

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::OptimError;
 use crate::figures::{pareto_figure, progress_figure};
-use crate::files::write_atomically;
+use tdpcr::output::write_atomically;
 use crate::objectives::{Objective, PARETO_OBJECTIVES};
 use crate::runlog::Record;
 use crate::search::{SearchResult, Setup};

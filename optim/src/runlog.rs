@@ -124,7 +124,7 @@ impl ResultsLog {
         if std::fs::metadata(&path).is_ok_and(|m| m.len() > 0) {
             return Err(OptimError::RunExists { path });
         }
-        crate::files::write_atomically(&dir.join(RUN_FILE), run_info_text(info).as_bytes())?;
+        tdpcr::output::write_atomically(&dir.join(RUN_FILE), run_info_text(info).as_bytes())?;
         let file = File::create(&path).map_err(|source| OptimError::io(&path, source))?;
         Ok(Self {
             path,
@@ -198,7 +198,7 @@ impl ResultsLog {
         file.set_len(good_len as u64)
             .and_then(|()| file.seek(SeekFrom::End(0)))
             .map_err(|source| OptimError::io(&path, source))?;
-        crate::files::write_atomically(&run_path, run_info_text(info).as_bytes())?;
+        tdpcr::output::write_atomically(&run_path, run_info_text(info).as_bytes())?;
         Ok((
             Self {
                 path,

@@ -13,6 +13,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use plotters::prelude::*;
 
 use super::{Ellipsoid, Ellipsoids};
+use crate::output::{WriteError, write_atomically};
 
 /// A plot that could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -61,12 +62,13 @@ pub fn write_ellipsoid_plots(dir: &Path, e: &Ellipsoids) -> Result<Vec<PathBuf>,
     Ok(written)
 }
 
-/// Writes `bytes` atomically ([`crate::output::write_atomically`]).
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
-    crate::output::write_atomically(path, bytes).map_err(|source| PlotError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+impl From<WriteError> for PlotError {
+    fn from(e: WriteError) -> Self {
+        Self::Io {
+            path: e.path,
+            source: e.source,
+        }
+    }
 }
 
 /// Outline of the projection on the plane of world axes (a, b), 121 points.

@@ -7,18 +7,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use crate::error::Error;
+use crate::output::write_atomically;
 use crate::workspace::{WorkspaceMap, figures};
 
-/// Writes `contents` atomically ([`crate::output::write_atomically`]).
-///
-/// # Errors
-/// [`Error::Output`] with the path and the I/O error.
-pub fn write_atomically(path: &Path, contents: &[u8]) -> Result<(), Error> {
-    crate::output::write_atomically(path, contents).map_err(|source| Error::Output {
-        path: path.to_path_buf(),
-        source,
-    })
-}
 
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
 /// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
