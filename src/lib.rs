@@ -16,6 +16,31 @@
 //! - [`workspace`]: the translational workspace for a fixed orientation (paper Sec. V-B),
 //!   rays of warm-started IK in parallel ([`workspace::sweep_workspace`]).
 //!
+//! The parallel robot: load the paper's design, solve FK for an actuation, read the
+//! Jacobian and the compliance at the solution, and check its stability
+//! (`examples/solve_fk.rs` and `examples/controller_loop.rs` go further):
+//!
+//! ```
+//! use tdpcr::Tdpcr;
+//! use tdpcr::analysis::AnalysisSettings;
+//! use tdpcr::kinetostatics::Solver;
+//! use tdpcr::rod::Wrench;
+//!
+//! let design = Tdpcr::from_ron_file(concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron"))?;
+//! let mut solver = Solver::new(&design);
+//! // q per leg: [bending q_b, base translation q_t] [m].
+//! let q = [0.002, 0.01, -0.001, 0.0, 0.0, 0.005];
+//! let sol = solver.solve_fk(&q, &Wrench::default(), None)?;
+//! let a = solver.analyze(&sol.state, &Wrench::default(), &AnalysisSettings::default())?;
+//! let (j_p, c_p) = (a.j_p(), a.compliance.view((0, 0), (3, 3)));
+//! assert_eq!((j_p.nrows(), j_p.ncols()), (3, 6)); // ∂p/∂q [m/m]
+//! assert!(c_p[(2, 2)] > 0.0); // ∂p_z/∂f_z [m/N]
+//! assert!(a.stability.stable);
+//! # Ok::<(), tdpcr::error::Error>(())
+//! ```
+//!
+//! One tendon-driven continuum robot alone:
+//!
 //! ```
 //! use tdpcr::{Tdcr, tdcr::{TdcrSolver, TendonControl, TipWrench}};
 //! let robot = Tdcr::from_ron_file(concat!(env!("CARGO_MANIFEST_DIR"), "/designs/tdcr_one_segment.ron")).unwrap();

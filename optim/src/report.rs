@@ -18,11 +18,11 @@ use std::path::{Path, PathBuf};
 
 use crate::error::OptimError;
 use crate::figures::{pareto_figure, progress_figure};
-use tdpcr::output::write_atomically;
 use crate::objectives::{Objective, PARETO_OBJECTIVES};
 use crate::runlog::Record;
 use crate::search::{SearchResult, Setup};
 use crate::space::DesignParameter;
+use tdpcr::output::write_atomically;
 
 /// Workspace slice figures of one design (from the workspace module), written to a
 /// subdirectory and shown side by side in the report.

@@ -10,7 +10,6 @@ use crate::error::Error;
 use crate::output::write_atomically;
 use crate::workspace::{WorkspaceMap, figures};
 
-
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
 /// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
 /// rcond_c_o`), the same unit-scaled (`rcond_scaled_...`), then the flags
