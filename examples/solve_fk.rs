@@ -26,7 +26,7 @@ pub fn main() -> Result<(), Error> {
         sol.report.iterations,
         sol.solve_time_us
     );
-    let a = solver.analyze(&sol.state, &no_load, &AnalysisSettings::default())?;
+    let a = solver.analyze_solution(&sol, &AnalysisSettings::default())?;
     println!(
         "rcond(J_p) {:.3}, rcond(C_p) {:.3}",
         a.rcond.j_p, a.rcond.c_p

@@ -106,6 +106,10 @@ pub struct Solution {
     pub report: NewtonReport,
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
+    /// The external wrench it was solved under, beyond the platform's weight (the `extra`
+    /// of the solve; the state is the equilibrium under it): [`Solver::analyze_solution`]
+    /// needs nothing else.
+    pub extra: Wrench,
 }
 
 impl Solution {
@@ -308,7 +312,7 @@ impl Solver {
             }
             None => self.cold_fk(q, &wrench),
         };
-        finish(result, start)
+        finish(result, start, extra)
     }
 
     /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
@@ -336,7 +340,9 @@ impl Solver {
                     .into(),
                 ..s.clone()
             },
-            None if self.model.pairs == 1 => return finish(self.cold_ik(pose, &wrench), start),
+            None if self.model.pairs == 1 => {
+                return finish(self.cold_ik(pose, &wrench), start, extra);
+            }
             None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
         let settings = self.settings;
@@ -348,7 +354,7 @@ impl Solver {
             }
             (r, _) => r,
         };
-        finish(result, start)
+        finish(result, start, extra)
     }
 
     /// IK of the redundant (9-DoF) design: Gauss–Newton steps that change q least,
@@ -937,12 +943,14 @@ pub fn home_guess(m: &Model, pose: &Pose, q: &[f64], wrench: &Wrench) -> RobotSt
 fn finish(
     result: Result<(RobotState, NewtonReport), SolveError>,
     start: Instant,
+    extra: &Wrench,
 ) -> Result<Solution, Error> {
     let (state, report) = result?;
     Ok(Solution {
         state,
         report,
         solve_time_us: start.elapsed().as_secs_f64() * 1e6,
+        extra: *extra,
     })
 }
 
@@ -1218,6 +1226,6 @@ impl Solver {
         };
         let settings = self.settings;
         let result = self.solve_target(None, &settings, &Target::Inverse(*pose), &wrench, guess);
-        finish(result, start)
+        finish(result, start, extra)
     }
 }

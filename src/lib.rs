@@ -31,7 +31,7 @@
 //! // q per leg: [bending q_b, base translation q_t] [m].
 //! let q = [0.002, 0.01, -0.001, 0.0, 0.0, 0.005];
 //! let sol = solver.solve_fk(&q, &Wrench::default(), None)?;
-//! let a = solver.analyze(&sol.state, &Wrench::default(), &AnalysisSettings::default())?;
+//! let a = solver.analyze_solution(&sol, &AnalysisSettings::default())?;
 //! let (j_p, c_p) = (a.j_p(), a.compliance.view((0, 0), (3, 3)));
 //! assert_eq!((j_p.nrows(), j_p.ncols()), (3, 6)); // ∂p/∂q [m/m]
 //! assert!(c_p[(2, 2)] > 0.0); // ∂p_z/∂f_z [m/N]

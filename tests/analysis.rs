@@ -648,3 +648,27 @@ fn analysis_is_repeatable_and_matches_between_solver_and_blocks() {
     }
     assert!(a.rcond.b_xu > 0.0 && a.rcond_scaled.b_xu > a.rcond.b_xu);
 }
+
+#[test]
+fn a_solution_is_analysed_under_the_wrench_it_was_solved_under() {
+    let mut s = tight_solver("lilge2022.ron");
+    let extra = Wrench {
+        force: Vector3::new(0.1, 0.0, -0.2),
+        moment: Vector3::new(0.0, 0.01, 0.0),
+    };
+    let sol = s.solve_fk(&Q6, &extra, None).unwrap();
+    assert_eq!(sol.extra, extra);
+    let settings = AnalysisSettings::default();
+    let direct = s.analyze(&sol.state, &extra, &settings).unwrap();
+    let from_solution = s.analyze_solution(&sol, &settings).unwrap();
+    assert_eq!(direct.compliance, from_solution.compliance);
+    // The load decides the state; at a given state the blocks, and so the analysis, do
+    // not depend on it (w enters the residual linearly, B_w = −[I; 0]).
+    let unloaded = s
+        .analyze(&sol.state, &Wrench::default(), &settings)
+        .unwrap();
+    assert_eq!(unloaded.compliance, from_solution.compliance);
+    let at_q_unloaded = s.solve_fk(&Q6, &Wrench::default(), None).unwrap();
+    let other = s.analyze_solution(&at_q_unloaded, &settings).unwrap();
+    assert_ne!(other.compliance, from_solution.compliance);
+}

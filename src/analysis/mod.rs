@@ -41,7 +41,7 @@ use serde::Serialize;
 
 use crate::boundary::BoundaryJacobians;
 use crate::error::{Error, Violations};
-use crate::kinetostatics::{RobotState, Solver};
+use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::Model;
 use crate::rod::Wrench;
 use crate::rod::tendon::tension;
@@ -310,6 +310,19 @@ pub fn analyze_blocks(
 }
 
 impl Solver {
+    /// [`Solver::analyze`] of a solution under the wrench it was solved under.
+    ///
+    /// # Errors
+    /// As [`Solver::analyze`].
+    pub fn analyze_solution(
+        &mut self,
+        solution: &Solution,
+        settings: &AnalysisSettings,
+    ) -> Result<Analysis, Error> {
+        let extra = solution.extra;
+        self.analyze(&solution.state, &extra, settings)
+    }
+
     /// Analyses `state` (normally a solution of [`Solver::solve_fk`] or
     /// [`Solver::solve_ik`]) under the platform weight plus `extra`: evaluates the exact
     /// blocks there (three leg integrations with sensitivities) and calls
