@@ -56,7 +56,7 @@ use serde::Serialize;
 
 use crate::boundary::convert_tendon_unknowns;
 use crate::design::Tdpcr;
-use crate::error::{Error, Violations};
+use crate::error::{Error, SolveError, Violations};
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
@@ -382,6 +382,9 @@ pub struct RayEnds {
     pub unstable: usize,
     /// The ray reached the geometric bound of the design (should not happen).
     pub max_radius: usize,
+    /// An error other than a solve that did not converge (e.g. a leg integration that
+    /// turned non-finite): the first one is in [`WorkspaceSummary::first_error`].
+    pub failed: usize,
 }
 
 impl RayEnds {
@@ -392,6 +395,7 @@ impl RayEnds {
             End::Collision => self.collision += 1,
             End::Unstable => self.unstable += 1,
             End::MaxRadius => self.max_radius += 1,
+            End::Failed => self.failed += 1,
         }
     }
 
@@ -401,6 +405,7 @@ impl RayEnds {
         self.collision += other.collision;
         self.unstable += other.unstable;
         self.max_radius += other.max_radius;
+        self.failed += other.failed;
     }
 }
 
@@ -418,6 +423,9 @@ pub enum PathEnd {
     Collision,
     /// A step reached an unstable equilibrium.
     Unstable,
+    /// A step failed with an error other than non-convergence
+    /// ([`WorkspaceSummary::first_error`]).
+    Failed,
     /// The home configuration itself is invalid (out of limits or colliding).
     InvalidHome,
 }
@@ -429,6 +437,7 @@ impl From<End> for PathEnd {
             End::Limits => Self::ActuationLimits,
             End::Collision => Self::Collision,
             End::Unstable => Self::Unstable,
+            End::Failed => Self::Failed,
         }
     }
 }
@@ -472,6 +481,10 @@ pub struct WorkspaceSummary {
     pub fractions: Fractions,
     /// Why rays ended.
     pub ray_ends: RayEnds,
+    /// The first error (the path first, then planes from the lowest and rays in order)
+    /// that ended a ray or the path other than a solve that did not converge; `None` when
+    /// there was none.
+    pub first_error: Option<String>,
     /// IK solves (Newton runs, including failed ones and retries).
     pub solves: usize,
     /// Newton iterations of the converged solves.
@@ -596,16 +609,19 @@ pub fn sweep_workspace_with_progress(
     let mut points = Vec::new();
     let mut samples = Vec::new();
     let mut ray_ends = RayEnds::default();
+    let mut first_error = planes.error.clone();
     for sweep in sweeps {
         let sweep = sweep?;
         points.extend(sweep.points);
         ray_ends.add(&sweep.ray_ends);
         samples.extend(sweep.samples);
+        first_error = first_error.or(sweep.first_error);
     }
     let wall = start.elapsed().as_secs_f64();
-    let summary = summarize(
+    let mut summary = summarize(
         settings, &planes, n_rays, &points, &samples, ray_ends, &work, wall,
     );
+    summary.first_error = first_error;
     Ok(WorkspaceMap {
         settings: settings.clone(),
         n_actuators: model.n_actuators(),
@@ -621,6 +637,8 @@ struct PlaneSweep {
     points: Vec<WorkspacePoint>,
     samples: Vec<PointMetrics>,
     ray_ends: RayEnds,
+    /// The message of the first ray (in ray order) that ended with [`End::Failed`].
+    first_error: Option<String>,
 }
 
 /// What sweeping a plane needs.
@@ -652,6 +670,7 @@ impl PlaneJob<'_> {
         for r in &rays {
             ray_ends.count(r.end);
         }
+        let first_error = rays.iter().find_map(|r| r.error.clone());
         let samples = std::iter::once(origin)
             .chain(rays.iter().flat_map(|r| r.samples.iter()))
             .filter(|s| !s.collision)
@@ -672,6 +691,7 @@ impl PlaneJob<'_> {
             points,
             samples,
             ray_ends,
+            first_error,
         })
     }
 }
@@ -728,11 +748,15 @@ impl Sample {
 /// Why a ray or path ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum End {
+    /// Newton stopped without a solution here (iteration limit, no progress, trust region
+    /// collapsed): the end of the reachable set in this direction.
     NotConverged,
     Limits,
     Collision,
     Unstable,
     MaxRadius,
+    /// Any other error; its message is in [`Worker::error`].
+    Failed,
 }
 
 /// A ray's solved points in order (steps 1, 2, ...) and why it ended.
@@ -740,6 +764,8 @@ enum End {
 struct Ray {
     samples: Vec<Sample>,
     end: End,
+    /// The message of an [`End::Failed`].
+    error: Option<String>,
 }
 
 /// A solver and collision buffers; cloned once per rayon job split.
@@ -748,6 +774,8 @@ struct Worker {
     solver: Solver,
     collisions: CollisionChecker,
     analysis: AnalysisSettings,
+    /// The message of the last [`End::Failed`].
+    error: Option<String>,
 }
 
 impl Worker {
@@ -760,6 +788,19 @@ impl Worker {
             solver,
             collisions,
             analysis: settings.analysis,
+            error: None,
+        }
+    }
+
+    /// [`End::NotConverged`] for a solve that stopped without a solution, [`End::Failed`]
+    /// (keeping the message) for any other error.
+    fn end_of(&mut self, e: Error) -> End {
+        match e {
+            Error::Solve(SolveError::NotConverged { .. }) => End::NotConverged,
+            other => {
+                self.error = Some(other.to_string());
+                End::Failed
+            }
         }
     }
 
@@ -768,13 +809,14 @@ impl Worker {
         if !model.within_limits(&state.q) {
             return Err(End::Limits);
         }
-        let collision = self
-            .collisions
-            .check(model, &state)
-            .map_err(|_| End::NotConverged)?
-            .is_some();
-        let metrics = point_metrics(&mut self.solver, &state, &self.analysis)
-            .map_err(|_| End::NotConverged)?;
+        let collision = match self.collisions.check(model, &state) {
+            Ok(c) => c.is_some(),
+            Err(e) => return Err(self.end_of(e.into())),
+        };
+        let metrics = match point_metrics(&mut self.solver, &state, &self.analysis) {
+            Ok(m) => m,
+            Err(e) => return Err(self.end_of(e)),
+        };
         Ok(Sample {
             state,
             collision,
@@ -809,7 +851,7 @@ impl Worker {
         let result = self.solver.solve_ik_newton(&pose, &zero, guess);
         self.solver.settings.progress_check = None;
         work.solves.fetch_add(1, Ordering::Relaxed);
-        let sol = result.map_err(|_| End::NotConverged)?;
+        let sol = result.map_err(|e| self.end_of(e))?;
         work.add(&sol.report);
         self.classify(model, sol.state)
     }
@@ -895,15 +937,27 @@ impl Worker {
                     let end = sample.end(settings.collisions);
                     samples.push(sample);
                     if let Some(end) = end {
-                        return Ray { samples, end };
+                        return Ray {
+                            samples,
+                            end,
+                            error: None,
+                        };
                     }
                 }
-                Err(end) => return Ray { samples, end },
+                Err(end) => {
+                    let error = (end == End::Failed).then(|| self.error.take()).flatten();
+                    return Ray {
+                        samples,
+                        end,
+                        error,
+                    };
+                }
             }
         }
         Ray {
             samples,
             end: End::MaxRadius,
+            error: None,
         }
     }
 }
@@ -1062,6 +1116,8 @@ struct Planes {
     origins: Vec<(i64, Sample)>,
     /// Why the path down and the path up stopped.
     ends: [PathEnd; 2],
+    /// The message of a [`PathEnd::Failed`] (down first).
+    error: Option<String>,
 }
 
 /// Solves the home configuration, then follows z up and down to the plane origins in the
@@ -1091,13 +1147,14 @@ fn reach_planes(
             return Ok(Planes {
                 origins: Vec::new(),
                 ends: [PathEnd::InvalidHome; 2],
+                error: None,
             });
         }
     };
     let range = settings.plane_indices();
     let (lo, hi) = (*range.start(), *range.end());
     // One chain of path steps in direction `dir` (+1 up, −1 down) from home to `last_k`.
-    let chain = |dir: i64, last_k: i64| -> (Vec<(i64, Sample)>, PathEnd) {
+    let chain = |dir: i64, last_k: i64| -> (Vec<(i64, Sample)>, PathEnd, Option<String>) {
         let mut w = worker.clone();
         let mut out = Vec::new();
         let mut path: Vec<RobotState> = vec![home.state.clone()];
@@ -1110,20 +1167,20 @@ fn reach_planes(
             match w.step(model, &rotation, position, &history, work) {
                 Ok(s) => {
                     if let Some(end) = s.end(settings.collisions) {
-                        return (out, end.into());
+                        return (out, end.into(), None);
                     }
                     path.push(s.state.clone());
                     if range.contains(&k) {
                         out.push((k, s));
                     }
                 }
-                Err(end) => return (out, end.into()),
+                Err(end) => return (out, end.into(), w.error.take()),
             }
         }
-        (out, PathEnd::EndOfRange)
+        (out, PathEnd::EndOfRange, None)
     };
-    let none = || (Vec::new(), PathEnd::EndOfRange);
-    let ((down, down_end), (up, up_end)) = rayon::join(
+    let none = || (Vec::new(), PathEnd::EndOfRange, None);
+    let ((down, down_end, down_error), (up, up_end, up_error)) = rayon::join(
         || if lo < 0 { chain(-1, lo) } else { none() },
         || if hi > 0 { chain(1, hi) } else { none() },
     );
@@ -1135,6 +1192,7 @@ fn reach_planes(
     Ok(Planes {
         origins: planes,
         ends: [down_end, up_end],
+        error: down_error.or(up_error),
     })
 }
 
@@ -1278,6 +1336,7 @@ fn summarize(
             near_leg_singularity: fraction(counts.near_leg_singularity),
         },
         ray_ends,
+        first_error: None,
         solves,
         newton_iterations: work.iterations.load(Ordering::Relaxed),
         residual_evaluations: work.residuals.load(Ordering::Relaxed),
@@ -1314,6 +1373,33 @@ mod tests {
     fn model(design: &str) -> Model {
         let path = format!("{}/designs/{design}", env!("CARGO_MANIFEST_DIR"));
         Model::new(&Tdpcr::from_ron_file(path).unwrap())
+    }
+
+    #[test]
+    fn only_a_solve_without_a_solution_ends_a_ray_as_not_converged() {
+        let path = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
+        let design = Tdpcr::from_ron_file(path).unwrap();
+        let mut w = Worker::new(&design, &WorkspaceSettings::default());
+        let stopped = Error::Solve(SolveError::NotConverged {
+            iterations: 15,
+            residual_norm: 1e-3,
+            tolerance: 1e-10,
+            reason: crate::StopReason::TooLittleProgress,
+        });
+        assert_eq!(w.end_of(stopped), End::NotConverged);
+        assert!(w.error.is_none());
+        let blown_up = Error::Solve(SolveError::NonFinite {
+            stage: "rod strain derivatives (eq. 5)",
+        });
+        assert_eq!(w.end_of(blown_up), End::Failed);
+        assert!(
+            w.error.as_deref().unwrap().contains("non-finite"),
+            "{:?}",
+            w.error
+        );
+        let mut ends = RayEnds::default();
+        ends.count(End::Failed);
+        assert_eq!((ends.failed, ends.not_converged), (1, 0));
     }
 
     #[test]
