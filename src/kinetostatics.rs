@@ -238,6 +238,7 @@ impl Solver {
     ) -> Result<Wrench, Error> {
         Self::check_wrench(&mut v, extra);
         self.check_init(&mut v, init);
+        self.settings.check("settings", &mut v);
         if v.0.is_empty() {
             Ok(self.total_wrench(extra))
         } else {

@@ -132,9 +132,14 @@ struct NewtonArgs {
 impl NewtonArgs {
     /// Checks the values and writes them into `settings`.
     fn apply(&self, settings: &mut tdpcr::newton::NewtonSettings) -> Result<(), Error> {
+        let mut v = tdpcr::error::Violations::default();
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            let mut v = tdpcr::error::Violations::default();
             v.push("--tolerance", self.tolerance, "> 0");
+        }
+        if self.max_iterations == 0 {
+            v.push("--max-iterations", 0, ">= 1");
+        }
+        if !v.0.is_empty() {
             return Err(Error::Input(v));
         }
         settings.tolerance = self.tolerance;

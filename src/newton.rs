@@ -14,7 +14,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::{SolveError, StopReason};
+use crate::error::{SolveError, StopReason, Violations};
 use crate::linalg::DenseLu;
 
 /// A square system of nonlinear equations F(x) = 0 with its exact Jacobian.
@@ -78,6 +78,43 @@ pub struct NewtonSettings {
 }
 
 impl NewtonSettings {
+    /// Adds every value that breaks its rule to `v`, each field named `{prefix}.{field}`:
+    /// tolerance finite and > 0, at least one iteration, a finite positive trust-radius
+    /// factor, a chord contraction in [0, 1), and a progress check of at least one
+    /// iteration and a finite factor ≥ 1. Every solve of [`crate::kinetostatics::Solver`]
+    /// checks its settings so.
+    pub fn check(&self, prefix: &str, v: &mut Violations) {
+        let field = |name: &str| format!("{prefix}.{name}");
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            v.push(field("tolerance"), self.tolerance, "finite and > 0");
+        }
+        if self.max_iterations == 0 {
+            v.push(field("max_iterations"), 0, ">= 1");
+        }
+        if !(self.initial_radius_factor.is_finite() && self.initial_radius_factor > 0.0) {
+            v.push(
+                field("initial_radius_factor"),
+                self.initial_radius_factor,
+                "finite and > 0",
+            );
+        }
+        if !(0.0..1.0).contains(&self.chord_contraction) {
+            v.push(
+                field("chord_contraction"),
+                self.chord_contraction,
+                "in [0, 1)",
+            );
+        }
+        if let Some(p) = self.progress_check {
+            if p.iterations == 0 {
+                v.push(field("progress_check.iterations"), 0, ">= 1");
+            }
+            if !(p.factor.is_finite() && p.factor >= 1.0) {
+                v.push(field("progress_check.factor"), p.factor, "finite and >= 1");
+            }
+        }
+    }
+
     /// Whether a run that is not converged must stop before iteration `iterations + 1`:
     /// the reason (iteration limit, or a failed [`ProgressCheck`] given the first residual
     /// norm `first` and the current `norm`), or `None` to go on. Every solver loop that

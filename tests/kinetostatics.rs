@@ -291,3 +291,30 @@ fn bad_input_and_unreachable_poses_are_errors_not_panics() {
         Err(e) => panic!("{e}"),
     }
 }
+
+#[test]
+fn every_solve_checks_its_newton_settings_and_names_each_bad_one() {
+    let mut s = solver("lilge2022.ron");
+    s.settings.tolerance = -1.0;
+    s.settings.max_iterations = 0;
+    s.settings.chord_contraction = 1.5;
+    s.settings.progress_check = Some(tdpcr::newton::ProgressCheck {
+        iterations: 0,
+        factor: 0.5,
+    });
+    let w = Wrench::default();
+    let msg = s.solve_fk(&[0.0; 6], &w, None).unwrap_err().to_string();
+    for part in [
+        "settings.tolerance = -1: expected finite and > 0",
+        "settings.max_iterations = 0: expected >= 1",
+        "settings.chord_contraction = 1.5: expected in [0, 1)",
+        "settings.progress_check.iterations = 0: expected >= 1",
+        "settings.progress_check.factor = 0.5: expected finite and >= 1",
+    ] {
+        assert!(msg.contains(part), "{part:?} not in {msg}");
+    }
+    assert!(
+        s.solve_ik(&tdpcr::model::Pose::identity(), &w, None)
+            .is_err()
+    );
+}
