@@ -7,6 +7,7 @@
 //! Burgner-Kahrs, "Kinetostatic Modeling of Tendon-Driven Parallel Continuum Robots".
 //!
 //! Entry points:
+//! - [`spatial`]: the value types every layer shares ([`Frame`], [`Pose`], [`Wrench`]);
 //! - [`design`]: the RON design files ([`Tdcr`], [`Tdpcr`], [`Leg`]) and their validation;
 //! - [`rod`]: one leg, integrated with or without exact sensitivities;
 //! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control;
@@ -68,9 +69,11 @@ pub mod random;
 pub mod redundancy;
 pub mod rod;
 pub mod sampling;
+pub mod spatial;
 pub mod tdcr;
 pub mod trajectory;
 pub mod workspace;
 
 pub use design::{Leg, Tdcr, Tdpcr};
 pub use error::{DesignError, SolveError, StopReason};
+pub use spatial::{Frame, Pose, Wrench};

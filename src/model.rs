@@ -31,8 +31,7 @@ pub struct Model {
     pub limits: ActuationLimits,
 }
 
-/// A platform pose: position \[m\] and rotation (platform to world).
-pub type Pose = Frame;
+pub use crate::spatial::Pose;
 
 impl Model {
     /// Derives the model from a design that passed [`Tdpcr::validate`].

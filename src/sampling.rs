@@ -80,7 +80,7 @@ const CERTIFYING_STEPS: usize = 50;
 
 /// The first `count` draws of [`ActuationSampler`] (for `design`, `seed`) that can be
 /// reached from the solved q = 0 configuration (under the platform weight) by
-/// [`CERTIFYING_STEPS`] warm-started FK solves along the straight line in q. A benchmark
+/// `CERTIFYING_STEPS` (50) warm-started FK solves along the straight line in q. A benchmark
 /// of cold FK needs targets that have an equilibrium: with independent base translations
 /// many draws lie beyond a fold of the home branch (MODEL.md §4, Type II), where no
 /// solver can converge.

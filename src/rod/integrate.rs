@@ -11,10 +11,11 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
-use crate::rod::model::{Frame, LegModel};
+use crate::rod::leg_model::LegModel;
 use crate::rod::rhs::{RkEmit, RodState, Stage};
 pub use crate::rod::tangents::MAX_DIRECTIONS;
 use crate::rod::tangents::Tangents;
+use crate::spatial::Frame;
 
 /// The state at the tip of a leg (world frame, SI).
 #[derive(Debug, Clone, Copy, PartialEq)]

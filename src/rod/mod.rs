@@ -2,13 +2,14 @@
 
 pub mod integrate;
 pub mod ldlt6;
-pub mod model;
+pub mod leg_model;
 pub mod rhs;
 pub mod tangents;
 pub mod tendon;
 
+pub use crate::spatial::{Frame, Wrench};
 pub use integrate::{
     LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, MAX_DIRECTIONS, integrate_leg,
     integrate_leg_with_sensitivities,
 };
-pub use model::{Frame, LegModel, Wrench};
+pub use leg_model::LegModel;

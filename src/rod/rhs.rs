@@ -29,7 +29,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::rod::ldlt6::Ldlt6;
-use crate::rod::model::LegModel;
+use crate::rod::leg_model::LegModel;
 use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
 
 /// The rod state (or its derivative): position p \[m\], rotation R, strains v, u

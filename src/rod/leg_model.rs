@@ -4,34 +4,6 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::{Leg, MAX_TENDONS};
 
-/// A rigid frame: position \[m\] and rotation (columns = frame axes in the world frame).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Frame {
-    /// Origin in the world frame \[m\].
-    pub position: Vector3<f64>,
-    /// Orientation, body-to-world.
-    pub rotation: Matrix3<f64>,
-}
-
-impl Frame {
-    /// The world frame itself.
-    pub fn identity() -> Self {
-        Self {
-            position: Vector3::zeros(),
-            rotation: Matrix3::identity(),
-        }
-    }
-}
-
-/// A wrench (force \[N\], moment \[N·m\]), world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Wrench {
-    /// Force \[N\].
-    pub force: Vector3<f64>,
-    /// Moment \[N·m\].
-    pub moment: Vector3<f64>,
-}
-
 /// A piece of the leg between two consecutive breakpoints (disks or tendon ends).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interval {
