@@ -13,7 +13,7 @@
 //!   is square and solved on its own, 3 LU factorizations of (6 + n_t) × (6 + n_t)): it
 //!   is invariant under any change of the leg unknowns, so the solver's ζ blocks give it
 //!   as well as the paper's γ blocks;
-//! - the signed eigenvalues of the unit-scaled symmetric part, D C D with
+//! - the signed eigenvalues of the unit-scaled symmetric part, D⁻¹ C D⁻¹ with
 //!   D = diag(√(L³/EI) I₃, √(L/EI) I₃) (a congruence: the signs are those of sym(C),
 //!   Sylvester's law of inertia), and of sym(C_p) \[m/N\] and sym(C_o) \[rad/(N·m)\].
 
@@ -30,14 +30,14 @@ use super::UnitScaling;
 pub struct Stability {
     /// Every eigenvalue of the scaled sym(C) is positive.
     pub stable: bool,
-    /// Eigenvalues of sym(D C D), ascending (dimensionless; D in the module docs): their
+    /// Eigenvalues of sym(D⁻¹ C D⁻¹), ascending (dimensionless; D in the module docs): their
     /// signs are those of sym(C).
     pub eigenvalues: [f64; 6],
     /// Eigenvalues of sym(C_p), ascending \[m/N\].
     pub eigenvalues_c_p: [f64; 3],
     /// Eigenvalues of sym(C_o), ascending \[rad/(N·m)\].
     pub eigenvalues_c_o: [f64; 3],
-    /// ‖D C D − (D C D)ᵀ‖_F / ‖D C D‖_F: zero for the exact conservative model; what is
+    /// ‖D⁻¹ C D⁻¹ − (D⁻¹ C D⁻¹)ᵀ‖_F / ‖D⁻¹ C D⁻¹‖_F: zero for the exact conservative model; what is
     /// left is the discretization's and round-off's.
     pub asymmetry: f64,
 }
@@ -46,7 +46,7 @@ impl Stability {
     /// The stability read from a compliance C (6 × 6, raw SI, columns f_ext then l_ext).
     pub fn of_compliance(model: &Model, compliance: &DMatrix<f64>) -> Self {
         let c = Matrix6::from_fn(|r, k| compliance[(r, k)]);
-        let scaled = scale_congruent(model, &c, Exponent::Compliance);
+        let scaled = scale_congruent(model, &c);
         let sym = symmetric_part(&scaled);
         let eigenvalues = sorted(sym.symmetric_eigenvalues().as_slice());
         let c_p = symmetric_part3(&c.fixed_view::<3, 3>(0, 0).into_owned());
@@ -66,26 +66,14 @@ impl Stability {
     }
 }
 
-/// Which way the unit scaling goes: C (m/N …) or K = C⁻¹ (N/m …).
-#[derive(Clone, Copy)]
-enum Exponent {
-    Compliance,
-    Stiffness,
-}
-
-/// D M D with D = diag(√(L³/EI) I₃, √(L/EI) I₃) for C, D⁻¹ for K.
-fn scale_congruent(model: &Model, m: &Matrix6<f64>, e: Exponent) -> Matrix6<f64> {
+/// The compliance in units of the leg, D⁻¹ C D⁻¹ with D = diag(√(L³/EI) I₃, √(L/EI) I₃)
+/// (a congruence: the signs of its eigenvalues are those of C's).
+fn scale_congruent(model: &Model, c: &Matrix6<f64>) -> Matrix6<f64> {
     let s = UnitScaling::new(model);
     // Position: L / F = L³/EI; rotation: 1 / M = L/EI.
     let (dp, dr) = ((s.length / s.force).sqrt(), (1.0 / s.moment).sqrt());
-    let d = |i: usize| {
-        let x = if i < 3 { dp } else { dr };
-        match e {
-            Exponent::Compliance => 1.0 / x,
-            Exponent::Stiffness => x,
-        }
-    };
-    Matrix6::from_fn(|r, c| m[(r, c)] * d(r) * d(c))
+    let d = |i: usize| if i < 3 { dp } else { dr };
+    Matrix6::from_fn(|r, col| c[(r, col)] / (d(r) * d(col)))
 }
 
 fn symmetric_part(m: &Matrix6<f64>) -> Matrix6<f64> {
@@ -123,13 +111,4 @@ pub fn platform_stiffness(model: &Model, blocks: &BoundaryJacobians) -> Option<M
         k -= Matrix6::from_fn(|r, c| update[(r, c)]);
     }
     k.iter().all(|x| x.is_finite()).then_some(k)
-}
-
-/// λ_min / max|λ| of the unit-scaled sym(K) (the same sign as the smallest eigenvalue of
-/// sym(C)): positive when stable, and a relative distance from the stability boundary.
-pub fn stiffness_margin(model: &Model, stiffness: &Matrix6<f64>) -> f64 {
-    let scaled = symmetric_part(&scale_congruent(model, stiffness, Exponent::Stiffness));
-    let e = scaled.symmetric_eigenvalues();
-    let max = e.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    if max > 0.0 { e.min() / max } else { 0.0 }
 }

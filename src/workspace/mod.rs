@@ -592,7 +592,7 @@ pub fn sweep_workspace_with_progress(
     };
     // Planes in parallel and, inside each, rays and cells in parallel: a thread that waits
     // for the last ray of a plane takes work from another plane.
-    let sweeps: Vec<Result<PlaneSweep, Error>> = planes
+    let sweeps: Vec<PlaneSweep> = planes
         .origins
         .par_iter()
         .map(|(k, origin)| {
@@ -611,7 +611,6 @@ pub fn sweep_workspace_with_progress(
     let mut ray_ends = RayEnds::default();
     let mut first_error = planes.error.clone();
     for sweep in sweeps {
-        let sweep = sweep?;
         points.extend(sweep.points);
         ray_ends.add(&sweep.ray_ends);
         samples.extend(sweep.samples);
@@ -653,7 +652,7 @@ struct PlaneJob<'a> {
 impl PlaneJob<'_> {
     /// The rays of plane k from its origin (in parallel), the cell representatives, and
     /// their measures (in parallel).
-    fn sweep(&self, k: i64, origin: &Sample, n_rays: usize) -> Result<PlaneSweep, Error> {
+    fn sweep(&self, k: i64, origin: &Sample, n_rays: usize) -> PlaneSweep {
         let (model, settings) = (self.model, self.settings);
         let rays: Vec<Ray> = (0..n_rays)
             .into_par_iter()
@@ -687,12 +686,12 @@ impl PlaneJob<'_> {
                 metrics: rep.sample.metrics,
             })
             .collect();
-        Ok(PlaneSweep {
+        PlaneSweep {
             points,
             samples,
             ray_ends,
             first_error,
-        })
+        }
     }
 }
 
