@@ -113,6 +113,7 @@ fn each_single_rule_is_enforced() {
             "leg.backbone_mass",
         ),
         ("mass: 0.0003", "mass: -0.1", "leg.disks.mass"),
+        ("count: 13", "count: 100000", "leg.disks.count"),
         ("radius: 0.006", "radius: 0.0", "leg.disks.radius"),
         (
             "tendon_stiffness: 1000.0",
@@ -152,6 +153,17 @@ fn each_single_rule_is_enforced() {
         assert_eq!(v.len(), 1, "{to}: {v:?}");
         assert_eq!(v[0].0, *field);
     }
+    // A tendon outside the disks is told against the disk radius first, before the
+    // antagonistic-pair rule it also breaks.
+    let outside = TDPCR.replacen(
+        "Tendon(angle: 3.141592653589793, offset: 0.005",
+        "Tendon(angle: 3.141592653589793, offset: 0.05",
+        1,
+    );
+    assert_ne!(outside, TDPCR, "fixture lacks the second tendon");
+    let v = violations(Tdpcr::from_ron_str(&outside, "o").unwrap_err());
+    let fields: Vec<&str> = v.iter().map(|(f, _)| f.as_str()).collect();
+    assert_eq!(fields, ["leg.tendons[1].offset", "leg.tendons[1]"]);
     let steps = TDCR.replace(
         "tendon_stiffness: 1000.0,",
         "tendon_stiffness: 1000.0, integration_steps: 0,",
