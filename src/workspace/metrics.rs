@@ -1,7 +1,8 @@
 //! The per-point measures of the workspace map (MODEL.md §4, §6): reciprocal condition
 //! numbers (raw SI and unit-scaled), singularity flags, stability and the minimum tendon
 //! tension at a solved state, from the kinetostatic analysis ([`crate::analysis`]). Every
-//! point of a sweep goes through [`point_metrics`] and nothing else.
+//! point of a sweep goes through [`point_metrics`] and nothing else; `tensions` gives a
+//! state's tendon tensions \[N\].
 
 use serde::Serialize;
 
@@ -9,7 +10,9 @@ use crate::analysis::AnalysisError;
 pub use crate::analysis::{AnalysisSettings, Rconds, Singularity};
 use crate::error::Error;
 use crate::kinetostatics::{RobotState, Solver};
+use crate::model::Model;
 use crate::rod::Wrench;
+use crate::rod::tendon::tension;
 
 /// Everything the workspace map records about one solved point.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -67,7 +70,7 @@ pub fn point_metrics(
                 c_p: 0.0,
                 c_o: 0.0,
             };
-            let min_tension = super::tensions(solver.model(), state)
+            let min_tension = tensions(solver.model(), state)
                 .into_iter()
                 .fold(f64::INFINITY, f64::min);
             Ok(PointMetrics {
@@ -86,4 +89,12 @@ pub fn point_metrics(
         }
         Err(e) => Err(e),
     }
+}
+
+/// Tendon tensions \[N\] of a state, legs concatenated.
+pub(super) fn tensions(model: &Model, state: &RobotState) -> Vec<f64> {
+    model
+        .tendon_unknown_indices()
+        .map(|i| tension(state.y_u[i]))
+        .collect()
 }
