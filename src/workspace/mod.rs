@@ -42,6 +42,7 @@
 //! fixed order, so the map is identical whatever the number of threads.
 
 pub mod collision;
+#[cfg(feature = "plots")]
 pub mod figures;
 pub mod files;
 pub mod metrics;
