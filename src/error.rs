@@ -213,7 +213,8 @@ pub enum Error {
     /// A kinetostatic analysis failed (an exactly singular matrix).
     #[error(transparent)]
     Analysis(#[from] crate::analysis::AnalysisError),
-    /// A plot could not be written.
+    /// A plot could not be written (feature `plots`).
+    #[cfg(feature = "plots")]
     #[error(transparent)]
     Plot(#[from] crate::analysis::plot::PlotError),
     /// An output file or directory could not be written.

@@ -51,12 +51,21 @@
 //!     .unwrap();
 //! assert!(sol.tensions[0] > 3.0 && sol.tensions[1] == 0.0);
 //! ```
+//!
+//! Crate features (all on by default; the numerical library alone builds with
+//! `default-features = false`):
+//! - `plots`: SVG figures (plotters): `analysis::plot` and `workspace::figures`;
+//! - `progress`: the progress bar of the `tdpcr workspace` sweep (indicatif);
+//! - `cli`: the `tdpcr` binary (clap) and [`cli_support`] (libc); turns on `plots` and
+//!   `progress`.
 #![warn(missing_docs, rustdoc::broken_intra_doc_links)]
 // Tendon quantities live in parallel arrays indexed by k, as in the equations.
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
 pub mod boundary;
+#[cfg(feature = "cli")]
+pub mod cli_support;
 pub mod design;
 pub mod error;
 pub mod jacobian_check;

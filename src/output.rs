@@ -1,6 +1,5 @@
 //! Output files written atomically: a temporary file in the same directory, then a rename
-//! (atomic on POSIX file systems), so an interrupted run leaves the complete file or none;
-//! and a command-line program's standard output that may be cut short by its reader.
+//! (atomic on POSIX file systems), so an interrupted run leaves the complete file or none.
 
 use std::fs;
 use std::io::{self, Write};
@@ -45,19 +44,9 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     })
 }
 
-/// Lets a command-line program end quietly, like other Unix tools, when the reader of its
-/// standard output goes away (`tdpcr fk ... | head`), instead of panicking in `println!`:
-/// restores the default action of SIGPIPE, which the Rust runtime sets to "ignore". Files
-/// are not affected (they are written atomically). Call it first thing in `main`; a no-op
-/// on platforms without SIGPIPE.
-pub fn end_quietly_on_broken_pipe() {
-    #[cfg(unix)]
-    // SAFETY: `signal` with SIG_DFL only resets a process-wide disposition; nothing else in
-    // the process installs a SIGPIPE handler.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
-}
+/// Moved to [`crate::cli_support`] (feature `cli`); re-exported here for old callers.
+#[cfg(feature = "cli")]
+pub use crate::cli_support::end_quietly_on_broken_pipe;
 
 #[cfg(test)]
 mod tests {

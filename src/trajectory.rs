@@ -1,12 +1,10 @@
 //! Sequences of solves, each warm-started from the previous solution (paper Tab. VII):
-//! CSV input, per-step results and timing statistics.
+//! per-step results and timing statistics. (Reading the targets from CSV is the CLI's.)
 
-use std::path::Path;
-
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Rotation3;
 use serde::Serialize;
 
-use crate::error::{Error, Violations};
+use crate::error::Error;
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::Pose;
 use crate::rod::Wrench;
@@ -56,76 +54,6 @@ pub struct Stats {
     pub median_iterations: f64,
     /// Steps that did not converge.
     pub failed: usize,
-}
-
-/// Reads a CSV of numbers with `width` columns (a first line that is not numeric is a
-/// header and is skipped; blank lines and lines starting with `#` are ignored).
-///
-/// # Errors
-/// [`Error::Input`] naming the file, line and column of every bad field.
-pub fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        let mut v = Violations::default();
-        v.push(
-            path.display().to_string(),
-            "unreadable",
-            &format!("a readable CSV file ({e})"),
-        );
-        Error::Input(v)
-    })?;
-    let mut rows = Vec::new();
-    let mut v = Violations::default();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let parsed: Vec<Option<f64>> = fields
-            .iter()
-            .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
-            .collect();
-        if rows.is_empty() && v.0.is_empty() && parsed.iter().all(Option::is_none) {
-            continue; // header
-        }
-        let at = |c: usize| format!("{}:{}:{}", path.display(), i + 1, c + 1);
-        if fields.len() != width {
-            v.push(
-                at(0),
-                format!("{} columns", fields.len()),
-                &format!("{width} columns: {what}"),
-            );
-            continue;
-        }
-        for (c, p) in parsed.iter().enumerate() {
-            if p.is_none() {
-                v.push(at(c), fields[c], "a finite number");
-            }
-        }
-        rows.push(parsed.into_iter().map(|p| p.unwrap_or(0.0)).collect());
-    }
-    if rows.is_empty() && v.0.is_empty() {
-        v.push(
-            path.display().to_string(),
-            "no data rows",
-            &format!("at least one row of {what}"),
-        );
-    }
-    if v.0.is_empty() {
-        Ok(rows)
-    } else {
-        Err(Error::Input(v))
-    }
-}
-
-/// Poses from rows x,y,z,rx,ry,rz.
-pub fn poses_from_rows(rows: &[Vec<f64>]) -> Vec<Pose> {
-    rows.iter()
-        .map(|r| Pose {
-            position: Vector3::new(r[0], r[1], r[2]),
-            rotation: *Rotation3::new(Vector3::new(r[3], r[4], r[5])).matrix(),
-        })
-        .collect()
 }
 
 /// Solves every target in order, each step warm-started from the last converged state
@@ -233,34 +161,6 @@ fn stats_of(steps: &[StepResult]) -> Stats {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn csv_reader_skips_a_header_and_names_bad_fields() {
-        let dir = std::env::temp_dir().join(format!("tdpcr-csv-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("poses.csv");
-        std::fs::write(
-            &path,
-            "x,y,z,rx,ry,rz\n0,0,0,0,0,0\n# comment\n\n0.001,0,0,0,0,0\n",
-        )
-        .unwrap();
-        let rows = read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap();
-        assert_eq!(rows.len(), 2);
-        assert_eq!(rows[1][0], 0.001);
-        std::fs::write(&path, "0,0,0,0,0,0\n0,abc,0,0,0,0\n0,0,0\n").unwrap();
-        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            msg.contains("poses.csv:2:2 = abc: expected a finite number"),
-            "{msg}"
-        );
-        assert!(
-            msg.contains("poses.csv:3:1 = 3 columns: expected 6 columns"),
-            "{msg}"
-        );
-        std::fs::remove_dir_all(&dir).ok();
-    }
 
     #[test]
     fn stats_use_all_steps() {

@@ -195,7 +195,7 @@ fn run(cli: &Cli) -> Result<(), OptimError> {
 }
 
 fn main() -> ExitCode {
-    tdpcr::output::end_quietly_on_broken_pipe();
+    tdpcr::cli_support::end_quietly_on_broken_pipe();
     let cli = Cli::parse();
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,

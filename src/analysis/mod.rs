@@ -30,6 +30,7 @@
 
 pub mod ellipsoid;
 mod lanczos;
+#[cfg(feature = "plots")]
 pub mod plot;
 mod qr;
 pub mod rcond;

@@ -1,6 +1,6 @@
-//! The workspace map on disk: `points.csv`, `summary.json` and the slice figures, each
-//! written atomically (a temporary file in the same directory, then a rename), so an
-//! interrupted run leaves either the complete file or none.
+//! The workspace map on disk: `points.csv`, `summary.json` and the slice figures (feature
+//! `plots`), each written atomically (a temporary file in the same directory, then a
+//! rename), so an interrupted run leaves either the complete file or none.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use crate::error::Error;
 use crate::output::write_atomically;
-use crate::workspace::{WorkspaceMap, figures};
+use crate::workspace::WorkspaceMap;
 
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
 /// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
@@ -84,8 +84,9 @@ pub fn points_csv(map: &WorkspaceMap) -> String {
     out
 }
 
-/// Writes `points.csv`, `summary.json` and the slice figures of [`figures`] into `dir`
-/// (created if missing). Returns the paths written, in that order.
+/// Writes `points.csv`, `summary.json` and (with the `plots` feature) the slice figures of
+/// `workspace::figures` into `dir` (created if missing). Returns the paths written, in
+/// that order.
 ///
 /// # Errors
 /// [`Error::Output`] naming the file that could not be written.
@@ -102,7 +103,8 @@ pub fn write_outputs(map: &WorkspaceMap, dir: &Path) -> Result<Vec<PathBuf>, Err
     let json = serde_json::to_string_pretty(&map.summary).expect("plain data serializes");
     write_atomically(&summary, (json + "\n").as_bytes())?;
     written.push(summary);
-    for (name, svg) in figures::slice_figures(map) {
+    #[cfg(feature = "plots")]
+    for (name, svg) in crate::workspace::figures::slice_figures(map) {
         let path = dir.join(name);
         write_atomically(&path, svg.as_bytes())?;
         written.push(path);

@@ -49,6 +49,7 @@
 //! [`figures`].
 
 pub mod collision;
+#[cfg(feature = "plots")]
 pub mod figures;
 pub mod files;
 pub mod metrics;

@@ -1,0 +1,187 @@
+//! `tdpcr trajectory`: a CSV of IK poses or FK actuations solved in order, each step
+//! warm-started from the last ([`tdpcr::trajectory::run_trajectory`]); the CSV reader and
+//! the per-step rows printed as CSV.
+
+use std::path::Path;
+
+use nalgebra::{Rotation3, Vector3};
+use serde::Serialize;
+
+use tdpcr::SolveError;
+use tdpcr::error::{Error, StopReason, Violations};
+use tdpcr::model::Pose;
+use tdpcr::trajectory::{Stats, StepResult, Targets, run_trajectory};
+
+use crate::args::TrajectoryArgs;
+use crate::output;
+use crate::solve::prepare;
+
+#[derive(Serialize)]
+struct TrajectoryOutput {
+    steps: Vec<StepResult>,
+    stats: Stats,
+}
+
+/// Runs `tdpcr trajectory`.
+pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
+    let (mut solver, wrench, _) = prepare(&args.design, &args.solve)?;
+    let targets = match (&args.ik, &args.fk) {
+        (Some(path), _) => {
+            let rows = read_csv(path, 6, "x,y,z,rx,ry,rz")?;
+            Targets::Poses(poses_from_rows(&rows))
+        }
+        (None, Some(path)) => {
+            let n = solver.model().n_actuators();
+            let what = format!("q1..q{n}");
+            Targets::Actuations(read_csv(path, n, &what)?)
+        }
+        (None, None) => unreachable!("clap requires --ik or --fk"),
+    };
+    let (steps, stats) = run_trajectory(&mut solver, &targets, &wrench);
+    let out = TrajectoryOutput { steps, stats };
+    output::print(args.solve.format, &out, print_rows);
+    if out.stats.failed > 0 {
+        return Err(Error::Solve(SolveError::NotConverged {
+            iterations: 0,
+            residual_norm: f64::NAN,
+            tolerance: args.solve.newton.tolerance,
+            reason: StopReason::TrajectoryStepsFailed,
+        }));
+    }
+    Ok(())
+}
+
+/// The text form of `trajectory`: one CSV row per step on stdout, the statistics on
+/// stderr.
+fn print_rows(TrajectoryOutput { steps, stats }: &TrajectoryOutput) {
+    println!("step,converged,iterations,solve_time_us,x,y,z,rx,ry,rz,q");
+    for s in steps {
+        let q: Vec<String> = s.q.iter().map(|x| x.to_string()).collect();
+        println!(
+            "{},{},{},{:.1},{},{},{},{},{},{},{}",
+            s.step,
+            s.converged,
+            s.iterations,
+            s.solve_time_us,
+            s.position[0],
+            s.position[1],
+            s.position[2],
+            s.rotvec[0],
+            s.rotvec[1],
+            s.rotvec[2],
+            q.join(";")
+        );
+    }
+    eprintln!(
+        "{} steps, {} failed; per step: median {:.0} µs, mean {:.0} µs, max {:.0} µs, median {} iterations",
+        stats.steps,
+        stats.failed,
+        stats.median_us,
+        stats.mean_us,
+        stats.max_us,
+        stats.median_iterations
+    );
+}
+
+/// Reads a CSV of numbers with `width` columns (a first line that is not numeric is a
+/// header and is skipped; blank lines and lines starting with `#` are ignored).
+///
+/// # Errors
+/// [`Error::Input`] naming the file, line and column of every bad field.
+fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Error> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        let mut v = Violations::default();
+        v.push(
+            path.display().to_string(),
+            "unreadable",
+            &format!("a readable CSV file ({e})"),
+        );
+        Error::Input(v)
+    })?;
+    let mut rows = Vec::new();
+    let mut v = Violations::default();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parsed: Vec<Option<f64>> = fields
+            .iter()
+            .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
+            .collect();
+        if rows.is_empty() && v.0.is_empty() && parsed.iter().all(Option::is_none) {
+            continue; // header
+        }
+        let at = |c: usize| format!("{}:{}:{}", path.display(), i + 1, c + 1);
+        if fields.len() != width {
+            v.push(
+                at(0),
+                format!("{} columns", fields.len()),
+                &format!("{width} columns: {what}"),
+            );
+            continue;
+        }
+        for (c, p) in parsed.iter().enumerate() {
+            if p.is_none() {
+                v.push(at(c), fields[c], "a finite number");
+            }
+        }
+        rows.push(parsed.into_iter().map(|p| p.unwrap_or(0.0)).collect());
+    }
+    if rows.is_empty() && v.0.is_empty() {
+        v.push(
+            path.display().to_string(),
+            "no data rows",
+            &format!("at least one row of {what}"),
+        );
+    }
+    if v.0.is_empty() {
+        Ok(rows)
+    } else {
+        Err(Error::Input(v))
+    }
+}
+
+/// Poses from rows x,y,z,rx,ry,rz.
+fn poses_from_rows(rows: &[Vec<f64>]) -> Vec<Pose> {
+    rows.iter()
+        .map(|r| Pose {
+            position: Vector3::new(r[0], r[1], r[2]),
+            rotation: *Rotation3::new(Vector3::new(r[3], r[4], r[5])).matrix(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_reader_skips_a_header_and_names_bad_fields() {
+        let dir = std::env::temp_dir().join(format!("tdpcr-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("poses.csv");
+        std::fs::write(
+            &path,
+            "x,y,z,rx,ry,rz\n0,0,0,0,0,0\n# comment\n\n0.001,0,0,0,0,0\n",
+        )
+        .unwrap();
+        let rows = read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1][0], 0.001);
+        std::fs::write(&path, "0,0,0,0,0,0\n0,abc,0,0,0,0\n0,0,0\n").unwrap();
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.csv:2:2 = abc: expected a finite number"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("poses.csv:3:1 = 3 columns: expected 6 columns"),
+            "{msg}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,113 @@
+//! `tdpcr workspace`: the translational workspace sweep for a fixed orientation, on a
+//! thread pool, with a progress bar on a terminal; writes the map's files.
+
+use std::io::IsTerminal;
+
+use tdpcr::Tdpcr;
+use tdpcr::error::Error;
+use tdpcr::workspace::{CollisionPolicy, WorkspaceSettings, files, sweep_workspace_with_progress};
+
+use crate::args::WorkspaceArgs;
+
+/// Runs `tdpcr workspace`.
+pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
+    let design = Tdpcr::from_ron_file(&args.design)?;
+    let mut v = tdpcr::error::Violations::default();
+    let defaults = WorkspaceSettings::default();
+    let z_range = match &args.z_range {
+        None => defaults.z_range,
+        Some(z) if z.0.len() == 2 => [z.0[0], z.0[1]],
+        Some(z) => {
+            v.push(
+                "--z-range",
+                format!("{} values", z.0.len()),
+                "2 values ZMIN,ZMAX [m]",
+            );
+            defaults.z_range
+        }
+    };
+    if args.threads == Some(0) {
+        v.push("--threads", 0, ">= 1");
+    }
+    if !v.0.is_empty() {
+        return Err(Error::Input(v));
+    }
+    let settings = WorkspaceSettings {
+        rotvec: args.rotvec.unwrap_or_default().into(),
+        step: args.step,
+        angle_step: args.angle_step,
+        z_range,
+        collisions: if args.through_collisions {
+            CollisionPolicy::Continue
+        } else {
+            CollisionPolicy::Stop
+        },
+        ..defaults
+    };
+    settings.validate()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| {
+            let mut v = tdpcr::error::Violations::default();
+            v.push(
+                "--threads",
+                args.threads.unwrap_or(0),
+                &format!("a thread count the system allows ({e})"),
+            );
+            Error::Input(v)
+        })?;
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = indicatif::ProgressBar::new(0);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} rays, ETA {eta}",
+            )
+            .expect("constant template"),
+        );
+        Some(bar)
+    } else {
+        None
+    };
+    let progress = |p: tdpcr::workspace::Progress| {
+        if let Some(bar) = &bar {
+            bar.set_length(p.rays_total as u64);
+            bar.set_position(p.rays_done as u64);
+        }
+    };
+    let map = pool.install(|| sweep_workspace_with_progress(&design, &settings, &progress))?;
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let written = files::write_outputs(&map, &args.out)?;
+    let s = &map.summary;
+    println!(
+        "{} reachable cells ({:.3e} m³), {} near Type II, {} collision, {} unstable; planes z \
+         {:.3}..{:.3} m",
+        s.counts.reachable,
+        s.volume.reachable,
+        s.counts.near_type_ii,
+        s.counts.collision,
+        s.counts.unstable,
+        s.z_reached[0],
+        s.z_reached[1]
+    );
+    let t = &s.table_iii.per_sample.without_type_ii;
+    println!(
+        "Tab. III means over {} ray samples (near Type II excluded): rcond J_p {:.3}, J_o {:.3}, \
+         C_p {:.3}, C_o {:.3}",
+        s.table_iii.per_sample.without_type_ii_count,
+        t.j_p.mean,
+        t.j_o.mean,
+        t.c_p.mean,
+        t.c_o.mean
+    );
+    println!(
+        "{} solves in {:.1} s on {} threads ({:.0} solves/s)",
+        s.solves, s.wall_time_s, s.threads, s.solves_per_second
+    );
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
