@@ -28,7 +28,7 @@
 //! use tdpcr::rod::Wrench;
 //!
 //! let design = Tdpcr::from_ron_file(concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron"))?;
-//! let mut solver = Solver::new(&design);
+//! let mut solver = Solver::new(&design)?;
 //! // q per leg: [bending q_b, base translation q_t] [m].
 //! let q = [0.002, 0.01, -0.001, 0.0, 0.0, 0.005];
 //! let sol = solver.solve_fk(&q, &Wrench::default(), None)?;

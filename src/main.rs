@@ -520,7 +520,7 @@ fn prepare(
     if !v.0.is_empty() {
         return Err(Error::Input(v));
     }
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     args.newton.apply(&mut solver.settings)?;
     solver.jacobian = match args.jacobian {
         JacobianArg::Exact => JacobianMethod::Exact,
@@ -881,7 +881,7 @@ fn run_trajectory(args: &TrajectoryArgs) -> Result<(), Error> {
 
 fn run_jacobian_check(args: &JacobianCheckArgs) -> Result<(), Error> {
     let design = Tdpcr::from_ron_file(&args.design)?;
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     let check = tdpcr::jacobian_check::jacobian_check(&mut solver, args.samples, args.seed);
     match args.format {
         Format::Json => println!(

@@ -12,7 +12,7 @@ use tdpcr::rod::tendon::tension;
 use tdpcr::rod::{LegEnd, LegScratch, LegStart, Wrench, integrate_leg};
 
 fn solver(file: &str) -> Solver {
-    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap())
+    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap()).unwrap()
 }
 
 /// Platform equilibrium and joint conditions recomputed from fresh leg integrations,

@@ -572,7 +572,7 @@ pub fn sweep_workspace_with_progress(
     design.validate("design")?;
     settings.validate()?;
     let start = Instant::now();
-    let worker = Worker::new(design, settings);
+    let worker = Worker::new(design, settings)?;
     let model = worker.solver.model().clone();
     let work = Work::default();
     let planes = reach_planes(&worker, &model, settings, &work)?;
@@ -778,17 +778,17 @@ struct Worker {
 }
 
 impl Worker {
-    fn new(design: &Tdpcr, settings: &WorkspaceSettings) -> Self {
-        let mut solver = Solver::new(design);
+    fn new(design: &Tdpcr, settings: &WorkspaceSettings) -> Result<Self, Error> {
+        let mut solver = Solver::new(design)?;
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
         let collisions = CollisionChecker::new(solver.model());
-        Self {
+        Ok(Self {
             solver,
             collisions,
             analysis: settings.analysis,
             error: None,
-        }
+        })
     }
 
     /// [`End::NotConverged`] for a solve that stopped without a solution, [`End::Failed`]
@@ -843,12 +843,16 @@ impl Worker {
         let predicted = predict(model, history);
         let guess = predicted.as_ref().unwrap_or(last);
         // The full budget only if the first iterations made progress.
-        self.solver.settings.progress_check = (history.len() > 1).then_some(ProgressCheck {
-            iterations: PROBE_ITERATIONS,
-            factor: PROBE_PROGRESS,
-        });
-        let result = self.solver.solve_ik_newton(&pose, &zero, guess);
-        self.solver.settings.progress_check = None;
+        let newton = NewtonSettings {
+            progress_check: (history.len() > 1).then_some(ProgressCheck {
+                iterations: PROBE_ITERATIONS,
+                factor: PROBE_PROGRESS,
+            }),
+            ..self.solver.settings
+        };
+        let result = self
+            .solver
+            .solve_ik_newton_with(&pose, &zero, guess, &newton);
         work.solves.fetch_add(1, Ordering::Relaxed);
         let sol = result.map_err(|e| self.end_of(e))?;
         work.add(&sol.report);
@@ -1130,14 +1134,18 @@ fn reach_planes(
     let rotation = settings.rotation();
     let mut home_worker = worker.clone();
     // The cold home solve may need continuation: the solver's default iteration limit.
-    home_worker.solver.settings.max_iterations = NewtonSettings::default().max_iterations;
+    let home_settings = NewtonSettings {
+        max_iterations: NewtonSettings::default().max_iterations,
+        ..worker.solver.settings
+    };
     let home_pose = Pose {
         position: Vector3::zeros(),
         rotation,
     };
-    let home = home_worker
-        .solver
-        .solve_ik(&home_pose, &Wrench::default(), None)?;
+    let home =
+        home_worker
+            .solver
+            .solve_ik_with(&home_pose, &Wrench::default(), None, &home_settings)?;
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state) {
@@ -1378,7 +1386,7 @@ mod tests {
     fn only_a_solve_without_a_solution_ends_a_ray_as_not_converged() {
         let path = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
         let design = Tdpcr::from_ron_file(path).unwrap();
-        let mut w = Worker::new(&design, &WorkspaceSettings::default());
+        let mut w = Worker::new(&design, &WorkspaceSettings::default()).unwrap();
         let stopped = Error::Solve(SolveError::NotConverged {
             iterations: 15,
             residual_norm: 1e-3,
