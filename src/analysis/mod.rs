@@ -46,6 +46,7 @@ use crate::rod::tendon::tension;
 use lanczos::{Lanczos, Start};
 use qr::{LegQr, Scales, back_substitute};
 
+pub use crate::error::AnalysisError;
 pub use ellipsoid::Ellipsoid;
 pub use scaling::UnitScaling;
 pub use stability::Stability;
@@ -173,37 +174,6 @@ impl Analysis {
     pub fn c_o(&self) -> Matrix3<f64> {
         self.compliance.fixed_view::<3, 3>(3, 3).into_owned()
     }
-}
-
-/// An analysis that cannot be carried out.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum AnalysisError {
-    /// A matrix that must be inverted is exactly singular (or its solution overflows).
-    #[error("{matrix} is singular (rcond {rcond:.2e}): {undefined} do not exist here")]
-    Singular {
-        /// Which matrix, e.g. `[B_x B_u]`.
-        matrix: &'static str,
-        /// Its raw rcond.
-        rcond: f64,
-        /// What cannot be computed because of it.
-        undefined: &'static str,
-    },
-    /// A block or vector does not fit the model.
-    #[error("{what} is {found}: expected {expected} for this model")]
-    Shape {
-        /// Which input.
-        what: &'static str,
-        /// Its size.
-        found: String,
-        /// The size the model needs.
-        expected: String,
-    },
-    /// An input holds NaN or infinity.
-    #[error("non-finite value in {what}")]
-    NonFinite {
-        /// Which input.
-        what: &'static str,
-    },
 }
 
 /// Analyses a configuration from its exact blocks (evaluated with γ tendon unknowns at

@@ -71,7 +71,7 @@ pub struct Solution {
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
     /// The external wrench it was solved under, beyond the platform's weight (the `extra`
-    /// of the solve; the state is the equilibrium under it): [`Solver::analyze_solution`]
+    /// of the solve; the state is the equilibrium under it): [`Solver::analyze_solution`](super::Solver::analyze_solution)
     /// needs nothing else.
     pub extra: Wrench,
 }
