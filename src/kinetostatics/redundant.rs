@@ -48,7 +48,9 @@ pub enum Redundancy {
     /// Least change of q at every Gauss–Newton step; limits not enforced (the default).
     #[default]
     LeastNorm,
-    /// Every q within its limits: each step a QP with the limits as bounds.
+    /// Every q within its limits: each step a QP with the limits as bounds (cargo
+    /// feature `qp`; without it every solve that asks for it is an
+    /// [`Error::Input`](crate::error::Error::Input) naming the feature).
     WithinLimits(Objective),
 }
 
