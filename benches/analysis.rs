@@ -29,7 +29,7 @@ fn bench_analysis(c: &mut Criterion) {
         ("9dof", "lilge2022_redundant.ron", vec![0.0; 9]),
     ] {
         let d = design(file);
-        let mut solver = Solver::new(&d);
+        let mut solver = Solver::new(&d).unwrap();
         let state = solver.solve_fk(&q, &Wrench::default(), None).unwrap().state;
         let (_r, blocks) = solver.blocks_at(&state, &Wrench::default()).unwrap();
         let blocks = blocks.clone();
@@ -77,7 +77,7 @@ fn bench_ik_within_limits(c: &mut Criterion) {
             Redundancy::WithinLimits(Objective::LeastChange),
         ),
     ] {
-        let mut solver = Solver::new(&d);
+        let mut solver = Solver::new(&d).unwrap();
         solver.redundancy = redundancy;
         let home = solver
             .solve_ik(&Pose::identity(), &Wrench::default(), None)

@@ -39,7 +39,7 @@ fn bench_jacobians(c: &mut Criterion) {
     ] {
         let d = design(file);
         let model = Model::new(&d);
-        let mut solver = Solver::new(&d);
+        let mut solver = Solver::new(&d).unwrap();
         let state = solved_state(&mut solver, &q);
         let pose: Pose = state.pose();
         let wrench = solver.total_wrench(&Wrench::default());
@@ -107,7 +107,7 @@ fn bench_solves(c: &mut Criterion) {
     let mut group = c.benchmark_group("solve");
     group.sample_size(10);
     let d = design("lilge2022.ron");
-    let mut solver = Solver::new(&d);
+    let mut solver = Solver::new(&d).unwrap();
     let w = Wrench::default();
     let set = seeded_reachable_actuations(&d, 30, 42).unwrap().actuations;
     group.bench_function("fk_cold_30_vectors", |b| {
@@ -143,7 +143,7 @@ fn bench_solves(c: &mut Criterion) {
     // The same step from a state this solver did not produce (no prediction).
     group.bench_function("ik_warm_step_1mm_unpredicted", |b| {
         b.iter_batched(
-            || (Solver::new(&d), home.clone()),
+            || (Solver::new(&d).unwrap(), home.clone()),
             |(mut fresh, start)| {
                 fresh
                     .solve_ik(black_box(&poses[1]), &w, Some(&start))
@@ -162,7 +162,7 @@ fn bench_solves(c: &mut Criterion) {
     // 90° a roll of 90° only renames the pairs, MODEL.md §1), whose pair labels the
     // sequence is written for.
     let d9 = design("lilge2022_redundant_psi0.ron");
-    let mut solver9 = Solver::new(&d9);
+    let mut solver9 = Solver::new(&d9).unwrap();
     let fk = fk_motion_sequence(solver9.model().pairs, 1000);
     group.bench_function("fk_motion_1000_steps_9dof", |b| {
         b.iter(|| {

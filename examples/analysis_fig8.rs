@@ -45,7 +45,7 @@ fn main() {
         "/designs/lilge2022.ron"
     ))
     .expect("bundled design");
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design).expect("valid design");
     let w = Wrench::default();
     let settings = AnalysisSettings::default();
     let home = solver

@@ -22,7 +22,7 @@ fn main() {
     };
     let d = Tdpcr::from_ron_file(format!("{}/designs/{file}", env!("CARGO_MANIFEST_DIR"))).unwrap();
     let model = Model::new(&d);
-    let mut solver = Solver::new(&d);
+    let mut solver = Solver::new(&d).expect("valid design");
     let state = solver.solve_fk(&q, &Wrench::default(), None).unwrap().state;
     let pose = state.pose();
     let wrench = solver.total_wrench(&Wrench::default());

@@ -20,7 +20,7 @@ fn main() {
     for q in &sample.rejected {
         println!("  rejected q = {q:.4?}");
     }
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design).expect("valid design");
     let (mut iterations, mut jacobians, mut times, mut failed, mut other_branch) =
         (vec![], vec![], vec![], 0, 0);
     for (q, pose) in sample.actuations.iter().zip(&sample.poses) {

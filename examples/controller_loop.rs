@@ -16,7 +16,7 @@ use tdpcr::rod::Wrench;
 
 pub fn main() -> Result<(), Error> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron");
-    let mut solver = Solver::new(&Tdpcr::from_ron_file(path)?);
+    let mut solver = Solver::new(&Tdpcr::from_ron_file(path)?)?;
     let (w, settings) = (Wrench::default(), AnalysisSettings::default());
     let mut state = solver.solve_ik(&Pose::identity(), &w, None)?.state;
     // A 20 mm circle in the plane z = 0, 100 poses (1.3 mm apart).

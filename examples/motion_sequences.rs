@@ -15,7 +15,7 @@ fn design(file: &str) -> Tdpcr {
 
 fn main() {
     let w = Wrench::default();
-    let mut solver = Solver::new(&design("lilge2022.ron"));
+    let mut solver = Solver::new(&design("lilge2022.ron")).expect("valid design");
     let home = solver.solve_fk(&[0.0; 6], &w, None).unwrap().state;
     let poses = ik_motion_sequence(&home.pose(), 1300);
     let (max_dp, max_dr) = poses.windows(2).fold((0.0f64, 0.0f64), |(a, b), w| {
@@ -44,7 +44,7 @@ fn main() {
     // 90° a roll of 90° only renames the pairs, MODEL.md §1), whose pair labels the
     // sequence is written for.
     let d = design("lilge2022_redundant_psi0.ron");
-    let mut solver = Solver::new(&d);
+    let mut solver = Solver::new(&d).expect("valid design");
     let qs = fk_motion_sequence(solver.model().pairs, 1000);
     let (steps, stats) = run_trajectory(&mut solver, &Targets::Actuations(qs), &w);
     println!("FK, 9-DoF, 1000 steps: {stats:?}");

@@ -12,7 +12,7 @@ use tdpcr::rod::Wrench;
 pub fn main() -> Result<(), Error> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron");
     let design = Tdpcr::from_ron_file(path)?;
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     // Per leg [q_b, q_t] [m]: bend leg 1 by 3 mm of tendon, raise every base by 10 mm.
     let q = [0.003, 0.01, 0.0, 0.01, 0.0, 0.01];
     let no_load = Wrench::default();

@@ -198,6 +198,58 @@ pub enum SolveError {
     },
 }
 
+/// An analysis that cannot be carried out.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AnalysisError {
+    /// A matrix that must be inverted is exactly singular (or its solution overflows).
+    #[error("{matrix} is singular (rcond {rcond:.2e}): {undefined} do not exist here")]
+    Singular {
+        /// Which matrix, e.g. `[B_x B_u]`.
+        matrix: &'static str,
+        /// Its raw rcond.
+        rcond: f64,
+        /// What cannot be computed because of it.
+        undefined: &'static str,
+    },
+    /// A block or vector does not fit the model.
+    #[error("{what} is {found}: expected {expected} for this model")]
+    Shape {
+        /// Which input.
+        what: &'static str,
+        /// Its size.
+        found: String,
+        /// The size the model needs.
+        expected: String,
+    },
+    /// An input holds NaN or infinity.
+    #[error("non-finite value in {what}")]
+    NonFinite {
+        /// Which input.
+        what: &'static str,
+    },
+}
+
+/// A plot that could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The directory or a file could not be created or written.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// Underlying error.
+        source: std::io::Error,
+    },
+    /// plotters failed to draw.
+    #[error("cannot draw {name}: {message}")]
+    Draw {
+        /// The ellipsoid.
+        name: &'static str,
+        /// plotters' message.
+        message: String,
+    },
+}
+
 /// Any failure of a library entry point.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -212,11 +264,11 @@ pub enum Error {
     Input(Violations),
     /// A kinetostatic analysis failed (an exactly singular matrix).
     #[error(transparent)]
-    Analysis(#[from] crate::analysis::AnalysisError),
+    Analysis(#[from] AnalysisError),
     /// A plot could not be written (feature `plots`).
     #[cfg(feature = "plots")]
     #[error(transparent)]
-    Plot(#[from] crate::analysis::plot::PlotError),
+    Plot(#[from] PlotError),
     /// An output file or directory could not be written.
     #[error("cannot write {path}: {source}")]
     Output {

@@ -9,11 +9,18 @@
 //! Entry points:
 //! - [`spatial`]: the value types every layer shares ([`Frame`], [`Pose`], [`Wrench`]);
 //! - [`design`]: the RON design files ([`Tdcr`], [`Tdpcr`], [`Leg`]) and their validation;
-//! - [`rod`]: one leg, integrated with or without exact sensitivities;
+//! - [`rod`]: one leg, integrated with or without exact sensitivities, and its cold guess;
 //! - [`tdcr`]: the single-TDCR solver ([`tdcr::TdcrSolver`]), tension or displacement control;
-//! - [`kinetostatics`]: FK and IK of the parallel robot ([`kinetostatics::Solver`]);
-//! - [`analysis`]: Jacobians, compliance, singularity measures and ellipsoids of a solved
-//!   configuration ([`kinetostatics::Solver::analyze`], [`analysis::analyze_blocks`]);
+//! - [`newton`]: the dogleg Newton of square systems ([`newton::solve`]) and the
+//!   Gauss–Newton driver of the redundant IK ([`newton::solve_with_line_search`], one loop
+//!   for every [`newton::StepRule`]), both stopping by [`newton::NewtonSettings::outcome`];
+//! - [`kinetostatics`]: FK and IK of the parallel robot ([`kinetostatics::Solver`]:
+//!   [`Solver::new`](kinetostatics::Solver::new) validates the design; `solve_fk`,
+//!   `solve_ik`, `solve_ik_newton` with the solver's settings, `*_with` with settings per
+//!   call), redundancy resolution of the 9-DoF design ([`redundancy`]);
+//! - [`analysis`]: Jacobians, compliance, singularity measures and ellipsoids, a function
+//!   of the boundary blocks ([`analysis::analyze_blocks`]); a solved configuration is
+//!   analysed by [`kinetostatics::Solver::analyze`];
 //! - [`workspace`]: the translational workspace for a fixed orientation (paper Sec. V-B),
 //!   rays of warm-started IK in parallel ([`workspace::sweep_workspace`]).
 //!
@@ -28,7 +35,7 @@
 //! use tdpcr::rod::Wrench;
 //!
 //! let design = Tdpcr::from_ron_file(concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron"))?;
-//! let mut solver = Solver::new(&design);
+//! let mut solver = Solver::new(&design)?;
 //! // q per leg: [bending q_b, base translation q_t] [m].
 //! let q = [0.002, 0.01, -0.001, 0.0, 0.0, 0.005];
 //! let sol = solver.solve_fk(&q, &Wrench::default(), None)?;
@@ -39,6 +46,10 @@
 //! assert!(a.stability.stable);
 //! # Ok::<(), tdpcr::error::Error>(())
 //! ```
+//!
+//! Crate features: `qp` (default) adds the QP steps of
+//! [`Redundancy::WithinLimits`](redundancy::Redundancy::WithinLimits) (clarabel); without
+//! it a solve that asks for them is an [`error::Error::Input`] naming the feature.
 //!
 //! One tendon-driven continuum robot alone:
 //!

@@ -132,6 +132,37 @@ impl NewtonSettings {
     }
 }
 
+impl NewtonSettings {
+    /// How a run ends at the current iterate (work so far in `report`, first residual
+    /// norm `first`): converged (‖F‖₂ ≤ tolerance), stopped (see
+    /// [`NewtonSettings::stop_reason`]) or `None` to go on. The one stopping rule of
+    /// [`solve`] and [`solve_with_line_search`].
+    ///
+    /// # Errors
+    /// The [`SolveError::NotConverged`] the run ends with.
+    pub fn outcome(
+        &self,
+        report: &NewtonReport,
+        first: f64,
+    ) -> Option<Result<NewtonReport, SolveError>> {
+        if report.residual_norm <= self.tolerance {
+            return Some(Ok(*report));
+        }
+        let reason = self.stop_reason(report.iterations, first, report.residual_norm)?;
+        Some(Err(self.not_converged(report, reason)))
+    }
+
+    /// The error of a run that stops for `reason` after the work in `report`.
+    pub fn not_converged(&self, report: &NewtonReport, reason: StopReason) -> SolveError {
+        SolveError::NotConverged {
+            iterations: report.iterations,
+            residual_norm: report.residual_norm,
+            tolerance: self.tolerance,
+            reason,
+        }
+    }
+}
+
 /// Fail a Newton run after `iterations` iterations unless ‖F‖₂ has fallen by at least
 /// `factor` from the start. The run then ends exactly as one limited to `iterations`
 /// would; one that passes goes on without repeating them.
@@ -321,23 +352,15 @@ pub fn solve<S: NonlinearSystem>(
     let mut successes = 0usize;
     // Whether the next trial is expected to contract well (then its Jacobian is not needed).
     let mut contracting = true;
-    let not_converged = |iterations, norm, reason| SolveError::NotConverged {
-        iterations,
-        residual_norm: norm,
-        tolerance: settings.tolerance,
-        reason,
-    };
     loop {
-        if norm <= settings.tolerance {
-            return Ok(NewtonReport {
-                iterations,
-                residual_evaluations: evaluations,
-                jacobian_evaluations: jacobians,
-                residual_norm: norm,
-            });
-        }
-        if let Some(reason) = settings.stop_reason(iterations, sc.history[0], norm) {
-            return Err(not_converged(iterations, norm, reason));
+        let report = NewtonReport {
+            iterations,
+            residual_evaluations: evaluations,
+            jacobian_evaluations: jacobians,
+            residual_norm: norm,
+        };
+        if let Some(end) = settings.outcome(&report, sc.history[0]) {
+            return end;
         }
         if !sc.factored {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.
@@ -501,11 +524,7 @@ pub fn solve<S: NonlinearSystem>(
             }
             rejected = true;
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
-                return Err(not_converged(
-                    iterations,
-                    norm,
-                    StopReason::TrustRegionCollapsed,
-                ));
+                return Err(settings.not_converged(&report, StopReason::TrustRegionCollapsed));
             }
         };
         iterations += 1;
@@ -528,6 +547,109 @@ pub fn solve<S: NonlinearSystem>(
             sc.factored = false;
         }
         // Otherwise a chord step: the factorized Jacobian is kept.
+    }
+}
+
+/// A system of m nonlinear equations F(x) = 0 in n ≥ m unknowns (an underdetermined
+/// one: the redundant IK), solved by [`solve_with_line_search`]. The Jacobian stays
+/// with the system, where the [`StepRule`] reads it.
+pub trait LineSearchSystem {
+    /// Number of equations m.
+    fn dim(&self) -> usize;
+
+    /// r = F(x) in SI units, and the Jacobian at x kept for the step rule.
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] when x leads to a non-finite state (ends the run).
+    fn residual_and_jacobian(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError>;
+
+    /// r = F(x) at a trial point.
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] as above (rejects the trial point).
+    fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError>;
+
+    /// Weight of each row in the merit function ‖W F‖² (about 1 / its typical size).
+    fn row_weights(&self, w: &mut DVector<f64>);
+}
+
+/// How each iteration of [`solve_with_line_search`] computes its step from the residual
+/// and the Jacobian its system holds (the least-norm KKT step, the QP step within
+/// limits, ...).
+pub trait StepRule<S> {
+    /// The step δx (n values) from `x` with residual `r` and row weights `weights` in
+    /// iteration `iteration` (0-based), or why there is none.
+    ///
+    /// # Errors
+    /// The [`StopReason`] the run ends with.
+    fn step(
+        &mut self,
+        system: &S,
+        x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        iteration: usize,
+    ) -> Result<Vec<f64>, StopReason>;
+}
+
+/// Solves F(x) = 0 from the start in `x` (overwritten with the solution) by Gauss–Newton
+/// steps of `rule`, each shortened by a backtracking line search: α = 1, ½, … until the
+/// weighted residual ‖W F‖² falls below (1 − 1e-4 α) of its value at x (Armijo); the
+/// run fails once α < 1e-6. Every iteration evaluates the Jacobian; stops as [`solve`]
+/// ([`NewtonSettings::outcome`]).
+///
+/// # Errors
+/// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
+/// or [`StopReason::LineSearchFailed`]; [`SolveError::NonFinite`] if F cannot be
+/// evaluated at an accepted iterate.
+pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
+    system: &mut S,
+    rule: &mut R,
+    x: &mut Vec<f64>,
+    settings: &NewtonSettings,
+) -> Result<NewtonReport, SolveError> {
+    let m = system.dim();
+    let mut weights = DVector::zeros(m);
+    system.row_weights(&mut weights);
+    let mut r = DVector::zeros(m);
+    let mut trial = DVector::zeros(m);
+    let mut report = NewtonReport::none();
+    let mut first_norm = f64::NAN;
+    let merit = |r: &DVector<f64>| r.component_mul(&weights).norm_squared();
+    loop {
+        system.residual_and_jacobian(x, &mut r)?;
+        report.residual_evaluations += 1;
+        report.jacobian_evaluations += 1;
+        report.residual_norm = r.norm();
+        if report.iterations == 0 {
+            first_norm = report.residual_norm;
+        }
+        if let Some(end) = settings.outcome(&report, first_norm) {
+            return end;
+        }
+        let step = rule
+            .step(system, x, &r, &weights, report.iterations)
+            .map_err(|reason| settings.not_converged(&report, reason))?;
+        let m0 = merit(&r);
+        let mut alpha = 1.0;
+        let accepted = loop {
+            if alpha < 1e-6 {
+                break false;
+            }
+            let x_t: Vec<f64> = x.iter().zip(&step).map(|(x, d)| x + alpha * d).collect();
+            report.residual_evaluations += 1;
+            let ok =
+                system.residual(&x_t, &mut trial).is_ok() && trial.iter().all(|v| v.is_finite());
+            if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
+                *x = x_t;
+                break true;
+            }
+            alpha *= 0.5;
+        };
+        if !accepted {
+            return Err(settings.not_converged(&report, StopReason::LineSearchFailed));
+        }
+        report.iterations += 1;
     }
 }
 

@@ -92,7 +92,7 @@ pub fn seeded_reachable_actuations(
     count: usize,
     seed: u64,
 ) -> Result<ReachableSample, Error> {
-    let mut solver = Solver::new(design);
+    let mut solver = Solver::new(design)?;
     let w = Wrench::default();
     let zero = vec![0.0; solver.model().n_actuators()];
     let home = solver.solve_fk(&zero, &w, None)?.state;

@@ -17,7 +17,7 @@ use tdpcr::rod::Wrench;
 
 /// A solver whose re-solves are as tight as the residual's round-off allows.
 fn tight_solver(file: &str) -> Solver {
-    let mut s = Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap());
+    let mut s = Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap()).unwrap();
     s.settings.tolerance = 1e-11;
     s
 }
@@ -509,7 +509,7 @@ fn the_leg_flag_is_raised_when_both_tendons_of_a_pair_are_slack_not_with_pretens
     // is 2.7e-9, below the paper's threshold (scaled: 2.9e-4), which would flag it.
     let mut design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
     design.pretension = 1.0;
-    let mut s = Solver::new(&design);
+    let mut s = Solver::new(&design).unwrap();
     let settings = AnalysisSettings::default();
     let home = s
         .solve_fk(&[0.0; 6], &Wrench::default(), None)

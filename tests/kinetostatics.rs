@@ -12,7 +12,7 @@ use tdpcr::rod::tendon::tension;
 use tdpcr::rod::{LegEnd, LegScratch, LegStart, Wrench, integrate_leg};
 
 fn solver(file: &str) -> Solver {
-    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap())
+    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap()).unwrap()
 }
 
 /// Platform equilibrium and joint conditions recomputed from fresh leg integrations,
@@ -317,4 +317,57 @@ fn every_solve_checks_its_newton_settings_and_names_each_bad_one() {
         s.solve_ik(&tdpcr::model::Pose::identity(), &w, None)
             .is_err()
     );
+}
+
+#[test]
+fn a_solver_is_made_only_for_a_valid_design_and_names_every_bad_value() {
+    let mut d = Tdpcr::from_ron_file(design_path("lilge2022.ron")).unwrap();
+    d.pretension = -1.0;
+    d.gravity = (0.0, f64::NAN, 0.0);
+    match Solver::new(&d) {
+        Err(Error::Design(e)) => {
+            let msg = e.to_string();
+            assert!(msg.contains("pretension = -1"), "{msg}");
+            assert!(msg.contains("gravity"), "{msg}");
+        }
+        Err(e) => panic!("unexpected {e}"),
+        Ok(_) => panic!("an invalid design made a solver"),
+    }
+}
+
+#[test]
+fn per_call_settings_match_the_same_solver_settings_and_leave_them_alone() {
+    let w = Wrench::default();
+    let q = [0.002, 0.01, -0.001, 0.0, 0.0, 0.005];
+    let per_call = tdpcr::newton::NewtonSettings {
+        tolerance: 1e-8,
+        chord_contraction: 0.0,
+        ..Default::default()
+    };
+    let mut a = solver("lilge2022.ron");
+    let defaults = a.settings;
+    let by_call = a.solve_fk_with(&q, &w, None, &per_call).unwrap();
+    assert_eq!(a.settings, defaults);
+    let mut b = solver("lilge2022.ron");
+    b.settings = per_call;
+    let by_field = b.solve_fk(&q, &w, None).unwrap();
+    assert_eq!(by_call.state, by_field.state);
+    assert_eq!(by_call.report, by_field.report);
+    let pose = by_field.state.pose();
+    let ik_call = a
+        .solve_ik_newton_with(&pose, &w, &by_call.state, &per_call)
+        .unwrap();
+    let ik_field = b.solve_ik_newton(&pose, &w, &by_field.state).unwrap();
+    assert_eq!(ik_call.state, ik_field.state);
+    assert_eq!(a.settings, defaults);
+    let bad = tdpcr::newton::NewtonSettings {
+        max_iterations: 0,
+        ..per_call
+    };
+    match a.solve_ik_with(&pose, &w, None, &bad) {
+        Err(Error::Input(v)) => {
+            assert!(v.to_string().contains("settings.max_iterations = 0"), "{v}")
+        }
+        other => panic!("{other:?}"),
+    }
 }

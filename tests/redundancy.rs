@@ -57,7 +57,7 @@ fn start_and_target(s: &mut Solver) -> (RobotState, RobotState) {
 fn least_norm_steps_leave_the_limits_where_qp_steps_stay_within_and_converge() {
     let d = design();
     let w = Wrench::default();
-    let mut least_norm = Solver::new(&d);
+    let mut least_norm = Solver::new(&d).unwrap();
     let (start, target) = start_and_target(&mut least_norm);
     let pose = target.pose();
     let ln = least_norm.solve_ik(&pose, &w, Some(&start)).unwrap();
@@ -68,7 +68,7 @@ fn least_norm_steps_leave_the_limits_where_qp_steps_stay_within_and_converge() {
         ln.state.q
     );
 
-    let mut strict = Solver::new(&d);
+    let mut strict = Solver::new(&d).unwrap();
     strict.redundancy = Redundancy::WithinLimits(Objective::LeastChange);
     let qp = strict.solve_ik(&pose, &w, Some(&start)).unwrap();
     let ratio_qp = limit_ratio(&d, &qp.state.q);
@@ -98,7 +98,7 @@ fn least_norm_steps_leave_the_limits_where_qp_steps_stay_within_and_converge() {
 fn closest_to_a_reference_on_the_solution_set_returns_it() {
     let d = design();
     let w = Wrench::default();
-    let mut s = Solver::new(&d);
+    let mut s = Solver::new(&d).unwrap();
     let (start, target) = start_and_target(&mut s);
     s.redundancy = Redundancy::WithinLimits(Objective::ClosestTo(target.q.clone()));
     let sol = s.solve_ik(&target.pose(), &w, Some(&start)).unwrap();
@@ -120,7 +120,7 @@ fn closest_to_a_reference_on_the_solution_set_returns_it() {
 fn a_pose_out_of_reach_within_the_limits_is_a_solve_error_not_a_violation() {
     let d = design();
     let w = Wrench::default();
-    let mut s = Solver::new(&d);
+    let mut s = Solver::new(&d).unwrap();
     let home = s.solve_fk(&[0.0; 9], &w, None).unwrap().state;
     // Translations of 104 mm (limit 100 mm): FK does not check limits.
     let beyond = [0.0, 0.0, 0.104, 0.0, 0.0, 0.104, 0.0, 0.0, 0.104];
@@ -130,7 +130,7 @@ fn a_pose_out_of_reach_within_the_limits_is_a_solve_error_not_a_violation() {
     assert!(matches!(e, Error::Solve(_)), "{e}");
     assert!(e.to_string().contains("solve did not converge"), "{e}");
     // The default (least-norm) solver reaches it, outside the limits.
-    let mut free = Solver::new(&d);
+    let mut free = Solver::new(&d).unwrap();
     let sol = free.solve_ik(&target.pose(), &w, Some(&home)).unwrap();
     assert!(limit_ratio(&d, &sol.state.q) > 1.0);
 }
@@ -139,8 +139,8 @@ fn a_pose_out_of_reach_within_the_limits_is_a_solve_error_not_a_violation() {
 fn the_6_dof_design_ignores_the_redundancy_setting() {
     let d = Tdpcr::from_ron_file(design_path("lilge2022.ron")).unwrap();
     let w = Wrench::default();
-    let mut a = Solver::new(&d);
-    let mut b = Solver::new(&d);
+    let mut a = Solver::new(&d).unwrap();
+    let mut b = Solver::new(&d).unwrap();
     b.redundancy = Redundancy::WithinLimits(Objective::LeastChange);
     let pose = tdpcr::model::Pose::identity();
     let qa = a.solve_ik(&pose, &w, None).unwrap().state.q;
@@ -163,7 +163,7 @@ fn every_ik_loop_honours_the_progress_check() {
     ];
     let w = Wrench::default();
     for (d, redundancy) in cases {
-        let mut s = Solver::new(d);
+        let mut s = Solver::new(d).unwrap();
         let home = s
             .solve_fk(&vec![0.0; d.n_actuators()], &w, None)
             .unwrap()

@@ -18,7 +18,7 @@ use tdpcr::rod::Wrench;
 /// unstable equilibrium with them (as `tdpcr ik` does), and on a stable one of the same
 /// pose with a tolerance of 1e-11 (the continuation takes another path).
 fn solver(file: &str) -> Solver {
-    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap())
+    Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap()).unwrap()
 }
 
 /// Cold IK at the origin with orientation `rotvec` \[rad\].

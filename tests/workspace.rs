@@ -63,7 +63,7 @@ fn every_point_is_an_equilibrium_that_fk_finds_again_from_its_q() {
     let design = reference();
     let settings = coarse();
     let map = sweep_on(2, &design, &settings);
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design).unwrap();
     // FK near a Type II singularity can stall just above 1e-10 (round-off of the SI
     // residual); 1e-9 still pins the pose far below the 1e-6 m asked for.
     solver.settings.tolerance = 1e-9;
@@ -223,7 +223,7 @@ fn unstable_equilibria_end_rays_and_are_recorded_but_not_reachable() {
     assert!(s.ray_ends.unstable > 0, "{:?}", s.ray_ends);
     assert!(s.counts.unstable > 0, "{:?}", s.counts);
     let design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design).unwrap();
     let (mut reachable, mut unstable) = (0, 0);
     for p in &map.points {
         assert_eq!(
@@ -263,7 +263,7 @@ fn no_reachable_cell_of_the_reference_design_is_unstable() {
     let s = &map.summary;
     assert_eq!((s.counts.unstable, s.ray_ends.unstable), (0, 0), "{s:?}");
     assert!(s.counts.reachable > 1000, "{:?}", s.counts);
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design).unwrap();
     for p in map.points.iter().filter(|p| p.reachable()) {
         assert!(stable(&mut solver, &p.state), "{:?}", p.cell);
     }

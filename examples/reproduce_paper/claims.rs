@@ -226,7 +226,7 @@ pub fn reproduce(mode: Mode, log: &mut dyn FnMut(&str)) -> Result<Report, Error>
             .map(|m| m.summary.counts.collision)
             .unwrap_or(0)
         });
-        let mut solver = Solver::new(&design);
+        let mut solver = Solver::new(&design)?;
         let home = solver.solve_ik(&pose([0.0; 3]), &Wrench::default(), None)?;
         let home_analysis = solver.analyze(
             &home.state,
@@ -369,8 +369,8 @@ fn rotation_path(
 }
 
 fn model_rows(rows: &mut Vec<Row>) -> Result<(), Error> {
-    let six = Solver::new(&load(DESIGNS[0])?);
-    let nine = Solver::new(&load(REDUNDANT[0])?);
+    let six = Solver::new(&load(DESIGNS[0])?)?;
+    let nine = Solver::new(&load(REDUNDANT[0])?)?;
     let dims = |s: &Solver| {
         let m = s.model();
         (
@@ -938,7 +938,7 @@ fn timing_facts(six: &str, nine: &str, res: &Resolution) -> Result<Timings, Erro
     let w = Wrench::default();
     let design = load(nine)?;
     let sample = seeded_reachable_actuations(&design, res.cold_fk, 42)?;
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     let home = solver.solve_fk(&vec![0.0; design.n_actuators()], &w, None)?;
     let (mut its, mut ms) = (Vec::new(), Vec::new());
     for q in &sample.actuations {
@@ -960,11 +960,11 @@ fn timing_facts(six: &str, nine: &str, res: &Resolution) -> Result<Timings, Erro
         mean_ms: mean(&ms),
         max_ms: max(&ms),
     };
-    let mut s6 = Solver::new(&load(six)?);
+    let mut s6 = Solver::new(&load(six)?)?;
     let home6 = s6.solve_fk(&[0.0; 6], &w, None)?;
     let poses = ik_motion_sequence(&home6.state.pose(), res.motion_ik);
     let (_, ik) = run_trajectory(&mut s6, &Targets::Poses(poses), &w);
-    let mut s9 = Solver::new(&design);
+    let mut s9 = Solver::new(&design)?;
     let mut qs = fk_motion_sequence(s9.model().pairs, res.motion_fk);
     if design.psi != 0.0 {
         // With four tendons at 90° a roll of ψ = 90° only relabels the pairs: pair 1 of

@@ -26,7 +26,8 @@
 //!
 //! The leg unknowns' γ columns are the paper's (τ = γ², Θ = γ² when slack): the blocks
 //! must be evaluated with [`TendonUnknown::Gamma`](crate::rod::tendon::TendonUnknown), as
-//! [`Solver::blocks_at`] does.
+//! [`Solver::blocks_at`](crate::kinetostatics::Solver::blocks_at) does (and
+//! [`Solver::analyze`](crate::kinetostatics::Solver::analyze) with it).
 
 pub mod ellipsoid;
 mod lanczos;
@@ -41,14 +42,12 @@ use nalgebra::{DMatrix, Matrix3};
 use serde::Serialize;
 
 use crate::boundary::BoundaryJacobians;
-use crate::error::{Error, Violations};
-use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::Model;
-use crate::rod::Wrench;
 use crate::rod::tendon::tension;
 use lanczos::{Lanczos, Start};
 use qr::{LegQr, Scales, back_substitute};
 
+pub use crate::error::AnalysisError;
 pub use ellipsoid::Ellipsoid;
 pub use scaling::UnitScaling;
 pub use stability::Stability;
@@ -178,37 +177,6 @@ impl Analysis {
     }
 }
 
-/// An analysis that cannot be carried out.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum AnalysisError {
-    /// A matrix that must be inverted is exactly singular (or its solution overflows).
-    #[error("{matrix} is singular (rcond {rcond:.2e}): {undefined} do not exist here")]
-    Singular {
-        /// Which matrix, e.g. `[B_x B_u]`.
-        matrix: &'static str,
-        /// Its raw rcond.
-        rcond: f64,
-        /// What cannot be computed because of it.
-        undefined: &'static str,
-    },
-    /// A block or vector does not fit the model.
-    #[error("{what} is {found}: expected {expected} for this model")]
-    Shape {
-        /// Which input.
-        what: &'static str,
-        /// Its size.
-        found: String,
-        /// The size the model needs.
-        expected: String,
-    },
-    /// An input holds NaN or infinity.
-    #[error("non-finite value in {what}")]
-    NonFinite {
-        /// Which input.
-        what: &'static str,
-    },
-}
-
 /// Analyses a configuration from its exact blocks (evaluated with γ tendon unknowns at
 /// `y_u`), without any leg integration. `y_u` gives the tendon states (tensions, slack
 /// pairs).
@@ -308,79 +276,6 @@ pub fn analyze_blocks(
         stability: Stability::of_compliance(model, &compliance),
         compliance,
     })
-}
-
-impl Solver {
-    /// [`Solver::analyze`] of a solution under the wrench it was solved under.
-    ///
-    /// # Errors
-    /// As [`Solver::analyze`].
-    pub fn analyze_solution(
-        &mut self,
-        solution: &Solution,
-        settings: &AnalysisSettings,
-    ) -> Result<Analysis, Error> {
-        let extra = solution.extra;
-        self.analyze(&solution.state, &extra, settings)
-    }
-
-    /// Analyses `state` (normally a solution of [`Solver::solve_fk`] or
-    /// [`Solver::solve_ik`]) under the platform weight plus `extra`: evaluates the exact
-    /// blocks there (three leg integrations with sensitivities) and calls
-    /// [`analyze_blocks`].
-    ///
-    /// # Errors
-    /// [`Error::Input`] for a state or wrench of the wrong size or with non-finite
-    /// values, or thresholds that are negative or not finite; [`Error::Solve`] if a leg
-    /// integration blows up; [`Error::Analysis`] as [`analyze_blocks`].
-    pub fn analyze(
-        &mut self,
-        state: &RobotState,
-        extra: &Wrench,
-        settings: &AnalysisSettings,
-    ) -> Result<Analysis, Error> {
-        let mut v = Violations::default();
-        let model = self.model();
-        for (field, found, expected) in [
-            ("state.q", state.q.len(), model.n_actuators()),
-            ("state.y_u", state.y_u.len(), 3 * model.n_leg_unknowns()),
-        ] {
-            if found != expected {
-                v.push(
-                    field,
-                    format!("{found} values"),
-                    &format!("{expected} values"),
-                );
-            }
-        }
-        let values = state.position.iter().chain(&state.rotvec).chain(&state.q);
-        if !values.chain(&state.y_u).all(|x| x.is_finite()) {
-            v.push("state", "a non-finite value", "finite numbers");
-        }
-        if !extra
-            .force
-            .iter()
-            .chain(&extra.moment)
-            .all(|x| x.is_finite())
-        {
-            v.push("wrench", "a non-finite value", "finite numbers");
-        }
-        for (field, x) in [
-            ("type_i_threshold", settings.type_i_threshold),
-            ("type_ii_threshold", settings.type_ii_threshold),
-            ("leg_threshold", settings.leg_threshold),
-        ] {
-            if !(x.is_finite() && x >= 0.0) {
-                v.push(field, x, ">= 0 and finite");
-            }
-        }
-        if !v.0.is_empty() {
-            return Err(Error::Input(v));
-        }
-        self.blocks_at(state, extra)?;
-        let (model, blocks) = self.model_and_blocks();
-        Ok(analyze_blocks(model, blocks, &state.y_u, settings)?)
-    }
 }
 
 /// Sizes and finiteness of the inputs.

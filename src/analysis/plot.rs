@@ -13,28 +13,8 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use plotters::prelude::*;
 
 use super::{Ellipsoid, Ellipsoids};
+pub use crate::error::PlotError;
 use crate::output::{WriteError, write_atomically};
-
-/// A plot that could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum PlotError {
-    /// The directory or a file could not be created or written.
-    #[error("cannot write {path}: {source}")]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// Underlying error.
-        source: std::io::Error,
-    },
-    /// plotters failed to draw.
-    #[error("cannot draw {name}: {message}")]
-    Draw {
-        /// The ellipsoid.
-        name: &'static str,
-        /// plotters' message.
-        message: String,
-    },
-}
 
 /// Writes `j_p.svg`, `j_o.svg`, `c_p.svg` and `c_o.svg` into `dir` (created if missing)
 /// and returns their paths.

@@ -1,5 +1,6 @@
 //! One leg: the tendon-driven Cosserat rod (MODEL.md §2) and its exact sensitivities (§5).
 
+pub mod cold_guess;
 pub mod integrate;
 pub mod ldlt6;
 pub mod leg_model;

@@ -152,7 +152,7 @@ pub fn sweep_workspace_with_progress(
     design.validate("design")?;
     settings.validate()?;
     let start = Instant::now();
-    let worker = Worker::new(design, settings);
+    let worker = Worker::new(design, settings)?;
     let model = worker.solver.model().clone();
     let work = Work::default();
     let planes = reach_planes(&worker, &model, settings, &work)?;

@@ -41,14 +41,18 @@ pub(super) fn reach_planes(
     let rotation = settings.rotation();
     let mut home_worker = worker.clone();
     // The cold home solve may need continuation: the solver's default iteration limit.
-    home_worker.solver.settings.max_iterations = NewtonSettings::default().max_iterations;
+    let home_settings = NewtonSettings {
+        max_iterations: NewtonSettings::default().max_iterations,
+        ..worker.solver.settings
+    };
     let home_pose = Pose {
         position: Vector3::zeros(),
         rotation,
     };
-    let home = home_worker
-        .solver
-        .solve_ik(&home_pose, &Wrench::default(), None)?;
+    let home =
+        home_worker
+            .solver
+            .solve_ik_with(&home_pose, &Wrench::default(), None, &home_settings)?;
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state) {

@@ -12,7 +12,7 @@ use crate::design::Tdpcr;
 use crate::error::{Error, SolveError};
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::{Model, Pose};
-use crate::newton::{NewtonReport, ProgressCheck};
+use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
 use crate::rod::Wrench;
 use crate::rod::tendon::tension;
 
@@ -96,17 +96,17 @@ pub(super) struct Worker {
 
 impl Worker {
     /// A worker with the solver set up for `settings`.
-    pub(super) fn new(design: &Tdpcr, settings: &WorkspaceSettings) -> Self {
-        let mut solver = Solver::new(design);
+    pub(super) fn new(design: &Tdpcr, settings: &WorkspaceSettings) -> Result<Self, Error> {
+        let mut solver = Solver::new(design)?;
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
         let collisions = CollisionChecker::new(solver.model());
-        Self {
+        Ok(Self {
             solver,
             collisions,
             analysis: settings.analysis,
             error: None,
-        }
+        })
     }
 
     /// [`End::NotConverged`] for a solve that stopped without a solution, [`End::Failed`]
@@ -161,12 +161,16 @@ impl Worker {
         let predicted = predict(model, history);
         let guess = predicted.as_ref().unwrap_or(last);
         // The full budget only if the first iterations made progress.
-        self.solver.settings.progress_check = (history.len() > 1).then_some(ProgressCheck {
-            iterations: PROBE_ITERATIONS,
-            factor: PROBE_PROGRESS,
-        });
-        let result = self.solver.solve_ik_newton(&pose, &zero, guess);
-        self.solver.settings.progress_check = None;
+        let newton = NewtonSettings {
+            progress_check: (history.len() > 1).then_some(ProgressCheck {
+                iterations: PROBE_ITERATIONS,
+                factor: PROBE_PROGRESS,
+            }),
+            ..self.solver.settings
+        };
+        let result = self
+            .solver
+            .solve_ik_newton_with(&pose, &zero, guess, &newton);
         work.solves.fetch_add(1, Ordering::Relaxed);
         let sol = result.map_err(|e| self.end_of(e))?;
         work.add(&sol.report);
@@ -346,7 +350,7 @@ mod tests {
     fn only_a_solve_without_a_solution_ends_a_ray_as_not_converged() {
         let path = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
         let design = Tdpcr::from_ron_file(path).unwrap();
-        let mut w = Worker::new(&design, &WorkspaceSettings::default());
+        let mut w = Worker::new(&design, &WorkspaceSettings::default()).unwrap();
         let stopped = Error::Solve(SolveError::NotConverged {
             iterations: 15,
             residual_norm: 1e-3,

@@ -11,7 +11,7 @@ use crate::output;
 /// Runs `tdpcr jacobian-check`.
 pub fn run(args: &JacobianCheckArgs) -> Result<(), Error> {
     let design = Tdpcr::from_ron_file(&args.design)?;
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     let check = tdpcr::jacobian_check::jacobian_check(&mut solver, args.samples, args.seed);
     output::print(args.format, &check, |check| {
         let e = &check.max_rel_error;

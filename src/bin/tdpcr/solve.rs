@@ -116,7 +116,7 @@ pub fn prepare(
     if !v.0.is_empty() {
         return Err(Error::Input(v));
     }
-    let mut solver = Solver::new(&design);
+    let mut solver = Solver::new(&design)?;
     args.newton.apply(&mut solver.settings)?;
     solver.jacobian = match args.jacobian {
         JacobianArg::Exact => JacobianMethod::Exact,

@@ -1,0 +1,266 @@
+//! Cold starts and continuation: Newton from the straight home guess; if that fails, the
+//! actuation (FK) or the pose (IK) is ramped from a solved configuration, and last a
+//! homotopy from the unloaded straight home (every tendon taut under an auxiliary
+//! pretension) to the full loads (MODEL.md §9).
+
+use nalgebra::Rotation3;
+
+use super::Solver;
+use super::home::{home_guess, straight_leg_pose, straight_leg_translations};
+use super::shooting::Problem;
+use super::state::RobotState;
+use super::target::{Target, run, solve_target};
+use crate::error::{SolveError, StopReason};
+use crate::model::Pose;
+use crate::newton::{NewtonReport, NewtonSettings};
+use crate::rod::Wrench;
+
+/// First continuation step in λ.
+const CONTINUATION_FIRST_STEP: f64 = 0.25;
+/// Pretension \[N\] of the continuation's start: every tendon taut (γ = 1, far from the
+/// γ = 0 trap of MODEL.md §9), relaxed to the design's pretension as λ → 1.
+const CONTINUATION_PRETENSION: f64 = 1.0;
+/// Newton iterations allowed per continuation step before the step is halved.
+const CONTINUATION_MAX_ITERATIONS: usize = 25;
+
+/// How the loads evolve along a continuation.
+#[derive(Debug, Clone, Copy)]
+enum Loads {
+    /// The full loads throughout.
+    Full,
+    /// From zero to full with λ, with an auxiliary `pretension` \[N\] relaxing to the design's.
+    FromUnloaded { pretension: f64 },
+}
+
+/// Cold FK: Newton from the straight guess; if that fails, q is ramped from the solved
+/// q = 0 configuration; last, continuation from the unloaded straight home. Where one
+/// q has several equilibria (e.g. legs buckled one way or the other under large base
+/// translations), this returns the one Newton reaches from the straight guess, not
+/// necessarily the one a robot moved there from home is in: warm-start from a known
+/// state (or follow a trajectory) to stay on a branch.
+pub(super) fn cold_fk(
+    solver: &mut Solver,
+    settings: &NewtonSettings,
+    q: &[f64],
+    wrench: &Wrench,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let pose = straight_leg_pose(&solver.model, q);
+    let guess = solver.home_guess(&pose, q, wrench);
+    let direct = run(solver, settings, Problem::Forward { q }, wrench, guess);
+    if direct.is_ok() {
+        return direct;
+    }
+    // Ramp q from the solved q = 0 configuration under the same loads.
+    let zero = vec![0.0; q.len()];
+    let home = if q.iter().all(|&x| x == 0.0) {
+        None
+    } else {
+        let pose = straight_leg_pose(&solver.model, &zero);
+        let guess = solver.home_guess(&pose, &zero, wrench);
+        run(
+            solver,
+            settings,
+            Problem::Forward { q: &zero },
+            wrench,
+            guess,
+        )
+        .ok()
+    };
+    if let Some((home, r)) = home {
+        if let Ok((state, mut report)) = ramp_actuation(solver, settings, home, q, wrench) {
+            report.add_work(&r);
+            return Ok((state, report));
+        }
+    }
+    let q_final = q.to_vec();
+    continuation(solver, settings, wrench, &|lambda: f64| {
+        Target::Forward(q_final.iter().map(|x| x * lambda).collect())
+    })
+    .or(direct)
+}
+
+/// Follows `target(λ)`, λ: 0 → 1, from `start` (the solution at λ = 0), warm-starting
+/// each step; the step is halved when Newton needs more than
+/// [`CONTINUATION_MAX_ITERATIONS`] and doubled after an easy step. With
+/// [`Loads::FromUnloaded`] the gravity loads and `wrench` grow with λ and the auxiliary
+/// pretension relaxes to the design's; intermediate steps then stop at 1e-7.
+fn ramp(
+    solver: &mut Solver,
+    base: &NewtonSettings,
+    start: RobotState,
+    wrench: &Wrench,
+    target: &dyn Fn(f64) -> Target,
+    loads: Loads,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let last_settings = NewtonSettings {
+        max_iterations: CONTINUATION_MAX_ITERATIONS.min(base.max_iterations),
+        ..*base
+    };
+    let intermediate = match loads {
+        Loads::Full => last_settings,
+        Loads::FromUnloaded { .. } => NewtonSettings {
+            tolerance: last_settings.tolerance.max(1e-7),
+            ..last_settings
+        },
+    };
+    let mut state = start;
+    let mut total = NewtonReport::none();
+    let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
+    while lambda < 1.0 {
+        let next = (lambda + step).min(1.0);
+        let settings = if next >= 1.0 {
+            last_settings
+        } else {
+            intermediate
+        };
+        let (scaled, w) = match loads {
+            Loads::Full => (None, *wrench),
+            Loads::FromUnloaded { pretension } => (
+                Some(solver.model.with_homotopy(
+                    next,
+                    pretension + (solver.model.pretension - pretension) * next,
+                )),
+                Wrench {
+                    force: wrench.force * next,
+                    moment: wrench.moment * next,
+                },
+            ),
+        };
+        match solve_target(
+            solver,
+            scaled.as_ref(),
+            &settings,
+            &target(next),
+            &w,
+            state.clone(),
+        ) {
+            Ok((s, r)) => {
+                total.add_work(&r);
+                total.residual_norm = r.residual_norm;
+                state = s;
+                lambda = next;
+                if r.iterations <= 4 {
+                    step *= 2.0;
+                }
+            }
+            Err(e) => {
+                if let SolveError::NotConverged { iterations, .. } = e {
+                    total.iterations += iterations;
+                }
+                step /= 2.0;
+                if step < 1.0 / 256.0 {
+                    return Err(match e {
+                        SolveError::NotConverged {
+                            residual_norm,
+                            tolerance,
+                            ..
+                        } => SolveError::NotConverged {
+                            iterations: total.iterations,
+                            residual_norm,
+                            tolerance,
+                            reason: StopReason::ContinuationStalled,
+                        },
+                        other => other,
+                    });
+                }
+            }
+        }
+    }
+    Ok((state, total))
+}
+
+/// FK along q(λ) = q_start + λ (q − q_start) from the solved `start`.
+pub(super) fn ramp_actuation(
+    solver: &mut Solver,
+    settings: &NewtonSettings,
+    start: RobotState,
+    q: &[f64],
+    wrench: &Wrench,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let q0 = start.q.clone();
+    let q1 = q.to_vec();
+    let target =
+        move |l: f64| Target::Forward(q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * l).collect());
+    ramp(solver, settings, start, wrench, &target, Loads::Full)
+}
+
+/// IK along the pose interpolated from `start`'s pose to `pose` (position linearly,
+/// rotation along the geodesic).
+pub(super) fn ramp_pose(
+    solver: &mut Solver,
+    settings: &NewtonSettings,
+    start: RobotState,
+    pose: &Pose,
+    wrench: &Wrench,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let p0 = start.pose();
+    let (dp, dr) = (
+        pose.position - p0.position,
+        Rotation3::from_matrix_unchecked(pose.rotation * p0.rotation.transpose()).scaled_axis(),
+    );
+    let target = move |l: f64| {
+        Target::Inverse(Pose {
+            position: p0.position + dp * l,
+            rotation: Rotation3::new(dr * l).matrix() * p0.rotation,
+        })
+    };
+    ramp(solver, settings, start, wrench, &target, Loads::Full)
+}
+
+/// Cold IK: Newton from the straight guess; if that fails, continuation from the
+/// unloaded straight home configuration.
+pub(super) fn cold_ik(
+    solver: &mut Solver,
+    settings: &NewtonSettings,
+    pose: &Pose,
+    wrench: &Wrench,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let guess = solver.home_guess(
+        pose,
+        &straight_leg_translations(&solver.model, pose),
+        wrench,
+    );
+    let direct = run(solver, settings, Problem::Inverse { pose }, wrench, guess);
+    if direct.is_ok() {
+        return direct;
+    }
+    let (p, phi) = (
+        pose.position,
+        Rotation3::from_matrix_unchecked(pose.rotation).scaled_axis(),
+    );
+    continuation(solver, settings, wrench, &|lambda: f64| {
+        Target::Inverse(Pose {
+            position: p * lambda,
+            rotation: *Rotation3::new(phi * lambda).matrix(),
+        })
+    })
+    .or(direct)
+}
+
+/// Homotopy from the unloaded straight home configuration (an exact solution with an
+/// auxiliary pretension that keeps every tendon taut) to `target(1)` under the full
+/// loads and the design's pretension; see [`ramp`].
+fn continuation(
+    solver: &mut Solver,
+    settings: &NewtonSettings,
+    wrench: &Wrench,
+    target: &dyn Fn(f64) -> Target,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let zero = vec![0.0; solver.model.n_actuators()];
+    let home = straight_leg_pose(&solver.model, &zero);
+    let pretension = CONTINUATION_PRETENSION.max(solver.model.pretension);
+    let start = home_guess(
+        &solver.model.with_homotopy(0.0, pretension),
+        &home,
+        &zero,
+        &Wrench::default(),
+    );
+    ramp(
+        solver,
+        settings,
+        start,
+        wrench,
+        target,
+        Loads::FromUnloaded { pretension },
+    )
+}

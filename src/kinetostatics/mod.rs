@@ -1,0 +1,380 @@
+//! Forward and inverse kinetostatics of the parallel robot by shooting (MODEL.md §3):
+//! Newton on the boundary residual b with the exact Jacobian (or the finite-difference
+//! baseline), globalized by the dogleg trust region of [`crate::newton`].
+//!
+//! [`Solver`] holds the model and every buffer; its methods check their inputs and
+//! delegate to the files of this module, one concept each:
+//! - `state.rs`: [`RobotState`] (a configuration, also a warm start) and [`Solution`];
+//! - `checks.rs`: the input checks of every solve;
+//! - `home.rs`: the straight home guess of a cold start (MODEL.md §9, [`home_guess`]);
+//! - `target.rs`: the target of one solve and which Newton takes it;
+//! - `shooting.rs`: FK and square IK as a [`crate::newton::NonlinearSystem`] (unknowns,
+//!   row weights, step limit at tendon kinks, rotation retraction);
+//! - `predictor.rs`: the tangent predictor of warm starts (MODEL.md §4);
+//! - `continuation.rs`: cold starts, ramps of actuation or pose, and the homotopy from
+//!   the unloaded home;
+//! - `redundant.rs`: IK of the 9-DoF design by the Gauss–Newton driver
+//!   [`crate::newton::solve_with_line_search`] with a least-norm step rule
+//!   ([`Redundancy`]); `within_limits.rs` its QP step rule (cargo feature `qp`).
+//!
+//! A cold start uses the straight home guess of MODEL.md §9 (legs straight, strains
+//! consistent with tensions from a constant-curvature estimate, γ never 0); if that fails
+//! for FK, the actuation is ramped from zero in steps (continuation).
+//!
+//! Every solve takes its [`NewtonSettings`] from [`Solver::settings`], or per call from
+//! the `*_with` variants ([`Solver::solve_fk_with`], [`Solver::solve_ik_with`],
+//! [`Solver::solve_ik_newton_with`]), which leave the solver's defaults alone.
+
+mod checks;
+mod continuation;
+mod home;
+mod predictor;
+mod redundant;
+mod shooting;
+mod state;
+mod target;
+#[cfg(feature = "qp")]
+mod within_limits;
+
+use std::time::Instant;
+
+use nalgebra::{DVector, Rotation3};
+
+use crate::analysis::{Analysis, AnalysisSettings, analyze_blocks};
+use crate::boundary::{BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives};
+use crate::design::Tdpcr;
+use crate::error::{Error, SolveError};
+use crate::model::{Model, Pose};
+use crate::newton::{NewtonReport, NewtonScratch, NewtonSettings};
+use crate::rod::Wrench;
+use crate::rod::tendon::TendonUnknown;
+use checks::{actuation_violations, analysis_violations, checked_wrench, pose_violations};
+use predictor::LastSolve;
+use target::{Target, solve_target};
+
+pub use home::{home_guess, straight_leg_pose, straight_leg_translations};
+pub use redundant::{Objective, Redundancy};
+pub use state::{RobotState, Solution};
+
+/// The tendon variable Newton iterates on (states report γ): the piecewise-linear ζ
+/// converges in a few steps where γ stalls near the taut/slack boundary.
+pub(crate) const SOLVER_TENDON_UNKNOWN: TendonUnknown = TendonUnknown::Linear;
+
+/// How the Newton Jacobian is obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum JacobianMethod {
+    /// Exact, from forward sensitivities.
+    Exact,
+    /// The paper's finite-difference baseline.
+    FiniteDifference(FiniteDifference),
+}
+
+/// Solves FK and IK problems of one design; holds every buffer.
+#[derive(Debug, Clone)]
+pub struct Solver {
+    model: Model,
+    boundary: BoundaryScratch,
+    blocks: BoundaryJacobians,
+    newton: NewtonScratch,
+    /// Default Newton settings of every solve (tolerance on ‖b‖₂ in SI units, iteration
+    /// limit); the `*_with` methods take others per call.
+    pub settings: NewtonSettings,
+    /// Jacobian used by Newton.
+    pub jacobian: JacobianMethod,
+    /// How IK of the 9-DoF design chooses among its solutions (least-norm steps by
+    /// default; [`Redundancy::WithinLimits`] keeps q within its limits).
+    pub redundancy: Redundancy,
+    /// The last converged square solve whose factorized Jacobian is still in `newton`
+    /// (the tangent predictor of warm starts from it).
+    last: Option<LastSolve>,
+}
+
+impl Solver {
+    /// A solver for `design`, validated first.
+    ///
+    /// # Errors
+    /// [`Error::Design`] listing every value of the design that breaks its rule
+    /// ([`Tdpcr::validate`]).
+    pub fn new(design: &Tdpcr) -> Result<Self, Error> {
+        design.validate("design")?;
+        let model = Model::new(design);
+        let settings = NewtonSettings::default();
+        let n = model.n_residuals();
+        Ok(Self {
+            boundary: BoundaryScratch::new(&model),
+            blocks: BoundaryJacobians::new(&model),
+            newton: NewtonScratch::new(n, settings.max_iterations),
+            model,
+            settings,
+            jacobian: JacobianMethod::Exact,
+            redundancy: Redundancy::LeastNorm,
+            last: None,
+        })
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The total wrench on the platform: its weight plus `extra`.
+    pub fn total_wrench(&self, extra: &Wrench) -> Wrench {
+        Wrench {
+            force: self.model.platform_weight + extra.force,
+            moment: extra.moment,
+        }
+    }
+
+    /// Forward kinetostatics: the pose and leg states for actuation `q` under the platform
+    /// weight plus `extra` (world frame, at the platform centre).
+    ///
+    /// # Errors
+    /// [`Error::Input`] for a q of the wrong length or non-finite values;
+    /// [`Error::Solve`] with residual norm and iterations if Newton fails.
+    pub fn solve_fk(
+        &mut self,
+        q: &[f64],
+        extra: &Wrench,
+        init: Option<&RobotState>,
+    ) -> Result<Solution, Error> {
+        let settings = self.settings;
+        self.solve_fk_with(q, extra, init, &settings)
+    }
+
+    /// [`Solver::solve_fk`] with `settings` for this call instead of [`Solver::settings`].
+    ///
+    /// # Errors
+    /// As [`Solver::solve_fk`]; [`Error::Input`] also for settings that break their
+    /// rules ([`NewtonSettings::check`]).
+    pub fn solve_fk_with(
+        &mut self,
+        q: &[f64],
+        extra: &Wrench,
+        init: Option<&RobotState>,
+        settings: &NewtonSettings,
+    ) -> Result<Solution, Error> {
+        let v = actuation_violations(self, q);
+        let wrench = checked_wrench(self, v, extra, init, settings)?;
+        let start = Instant::now();
+        let result = match init {
+            Some(s) => {
+                let target = Target::Forward(q.to_vec());
+                let direct = solve_target(self, None, settings, &target, &wrench, s.clone());
+                // A warm start too far away: follow the straight line in q from it.
+                direct.or_else(|e| {
+                    continuation::ramp_actuation(self, settings, s.clone(), q, &wrench)
+                        .map_err(|_| e)
+                })
+            }
+            None => continuation::cold_fk(self, settings, q, &wrench),
+        };
+        finish(result, start, extra)
+    }
+
+    /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
+    /// under its weight plus `extra`. The 6-DoF design solves the square system; the 9-DoF
+    /// design resolves its redundancy as [`Solver::redundancy`] says: by default the
+    /// least-norm change of q at every Gauss–Newton step, or with
+    /// [`Redundancy::WithinLimits`] a QP step that keeps q within its limits
+    /// ([`crate::redundancy`]).
+    ///
+    /// # Errors
+    /// As [`Solver::solve_fk`].
+    pub fn solve_ik(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        init: Option<&RobotState>,
+    ) -> Result<Solution, Error> {
+        let settings = self.settings;
+        self.solve_ik_with(pose, extra, init, &settings)
+    }
+
+    /// [`Solver::solve_ik`] with `settings` for this call instead of [`Solver::settings`].
+    ///
+    /// # Errors
+    /// As [`Solver::solve_fk_with`].
+    pub fn solve_ik_with(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        init: Option<&RobotState>,
+        settings: &NewtonSettings,
+    ) -> Result<Solution, Error> {
+        let wrench = checked_wrench(self, pose_violations(pose), extra, init, settings)?;
+        let start = Instant::now();
+        let guess = match init {
+            Some(s) => at_pose(s, pose),
+            None if self.model.pairs == 1 => {
+                return finish(
+                    continuation::cold_ik(self, settings, pose, &wrench),
+                    start,
+                    extra,
+                );
+            }
+            None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
+        };
+        let direct = solve_target(
+            self,
+            None,
+            settings,
+            &Target::Inverse(*pose),
+            &wrench,
+            guess,
+        );
+        let result = match (direct, init) {
+            // A warm start too far away: follow the pose path from it.
+            (Err(e), Some(s)) if s.q.len() == self.model.n_actuators() => {
+                continuation::ramp_pose(self, settings, s.clone(), pose, &wrench).map_err(|_| e)
+            }
+            (r, _) => r,
+        };
+        finish(result, start, extra)
+    }
+
+    /// IK by one Newton run from `guess`, without the continuation fallback of
+    /// [`Solver::solve_ik`]: for path following, where a step that fails ends the path
+    /// (the workspace rays of MODEL.md §6) and a fallback would only cost time. The
+    /// guess's pose is replaced by `pose`; its q and y_u are the start.
+    ///
+    /// # Errors
+    /// As [`Solver::solve_ik`].
+    pub fn solve_ik_newton(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        guess: &RobotState,
+    ) -> Result<Solution, Error> {
+        let settings = self.settings;
+        self.solve_ik_newton_with(pose, extra, guess, &settings)
+    }
+
+    /// [`Solver::solve_ik_newton`] with `settings` for this call (e.g. a
+    /// [`crate::newton::ProgressCheck`] for one path step) instead of [`Solver::settings`].
+    ///
+    /// # Errors
+    /// As [`Solver::solve_fk_with`].
+    pub fn solve_ik_newton_with(
+        &mut self,
+        pose: &Pose,
+        extra: &Wrench,
+        guess: &RobotState,
+        settings: &NewtonSettings,
+    ) -> Result<Solution, Error> {
+        let v = pose_violations(pose);
+        let wrench = checked_wrench(self, v, extra, Some(guess), settings)?;
+        let start = Instant::now();
+        let guess = at_pose(guess, pose);
+        let result = solve_target(
+            self,
+            None,
+            settings,
+            &Target::Inverse(*pose),
+            &wrench,
+            guess,
+        );
+        finish(result, start, extra)
+    }
+
+    /// The straight home guess for platform `pose` and actuation `q`.
+    pub fn home_guess(&self, pose: &Pose, q: &[f64], wrench: &Wrench) -> RobotState {
+        home_guess(&self.model, pose, q, wrench)
+    }
+
+    /// ‖b‖₂ after each iteration of the last Newton run (the last continuation step when
+    /// a solve needed continuation).
+    pub fn residual_history(&self) -> &[f64] {
+        self.newton.residual_history()
+    }
+
+    /// The residual and exact blocks at a state (for analysis and tests).
+    ///
+    /// # Errors
+    /// [`SolveError::NonFinite`] if a leg integration blows up.
+    pub fn blocks_at(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+    ) -> Result<(DVector<f64>, &BoundaryJacobians), SolveError> {
+        let wrench = self.total_wrench(extra);
+        let pose = state.pose();
+        let p = state.boundary_point(&pose, &wrench);
+        self.last = None;
+        let mut r = DVector::zeros(self.model.n_residuals());
+        boundary_derivatives(
+            &self.model,
+            &mut self.boundary,
+            &p,
+            &mut r,
+            &mut self.blocks,
+        )?;
+        Ok((r, &self.blocks))
+    }
+
+    /// [`Solver::analyze`] of a solution under the wrench it was solved under.
+    ///
+    /// # Errors
+    /// As [`Solver::analyze`].
+    pub fn analyze_solution(
+        &mut self,
+        solution: &Solution,
+        settings: &AnalysisSettings,
+    ) -> Result<Analysis, Error> {
+        let extra = solution.extra;
+        self.analyze(&solution.state, &extra, settings)
+    }
+
+    /// Analyses `state` (normally a solution of [`Solver::solve_fk`] or
+    /// [`Solver::solve_ik`]) under the platform weight plus `extra`: evaluates the exact
+    /// blocks there (three leg integrations with sensitivities) and calls
+    /// [`analyze_blocks`].
+    ///
+    /// # Errors
+    /// [`Error::Input`] for a state or wrench of the wrong size or with non-finite
+    /// values, or thresholds that are negative or not finite; [`Error::Solve`] if a leg
+    /// integration blows up; [`Error::Analysis`] as [`analyze_blocks`].
+    pub fn analyze(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        settings: &AnalysisSettings,
+    ) -> Result<Analysis, Error> {
+        let v = analysis_violations(self, state, extra, settings);
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        self.blocks_at(state, extra)?;
+        Ok(analyze_blocks(
+            &self.model,
+            &self.blocks,
+            &state.y_u,
+            settings,
+        )?)
+    }
+}
+
+/// `state` moved to `pose` (its q and y_u kept): the start of an IK from a warm start.
+fn at_pose(state: &RobotState, pose: &Pose) -> RobotState {
+    RobotState {
+        position: pose.position.into(),
+        rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+            .scaled_axis()
+            .into(),
+        ..state.clone()
+    }
+}
+
+/// The solution of a solve that began at `start`, under the external wrench `extra`.
+fn finish(
+    result: Result<(RobotState, NewtonReport), SolveError>,
+    start: Instant,
+    extra: &Wrench,
+) -> Result<Solution, Error> {
+    let (state, report) = result?;
+    Ok(Solution {
+        state,
+        report,
+        solve_time_us: start.elapsed().as_secs_f64() * 1e6,
+        extra: *extra,
+    })
+}

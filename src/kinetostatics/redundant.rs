@@ -1,0 +1,235 @@
+//! Redundancy resolution of the 9-DoF design (paper Sec. III, Table I: its IK has 39
+//! unknowns for 36 equations): the IK as a [`LineSearchSystem`] in the unknowns
+//! \[q (n_q), y_u (3 (6 + n_t))\] and its step rules, all run by the one Gauss–Newton
+//! driver [`newton::solve_with_line_search`].
+//!
+//! [`Redundancy::LeastNorm`] (the default) takes, at every Gauss–Newton step, the least
+//! change of q and ignores the limits: min ½‖δq‖² + ½ε‖D δy‖² subject to
+//! B_q δq + B_u δy = −b, a KKT system ([`LEAST_NORM_Y_WEIGHT`] = ε on the column-scaled
+//! leg unknowns keeps the step bounded in the null space).
+//! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
+//! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
+//! mathematics are in `within_limits.rs`).
+//!
+//! The secondary objective of the QP steps ([`Objective`]): the least change of q from
+//! the guess, or a reference q: the steps then start at the reference (clamped to the
+//! limits) and pull towards it; a solution at (or near) the reference is reached in a
+//! few Newton steps. Steps towards a reference far from every solution converge only
+//! linearly (they ignore the curvature of b = 0; on the reference design, moving along
+//! the solution set moves the leg unknowns 10²–10⁴ times more than q as tendons switch
+//! between taut and slack), so after half the iteration budget the pull stops and
+//! least-change steps finish; if that fails too, least-change steps start again from the
+//! guess.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::SOLVER_TENDON_UNKNOWN;
+use super::shooting::row_weights;
+use super::state::RobotState;
+use crate::boundary::{
+    BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives, boundary_residual,
+    convert_tendon_unknowns,
+};
+use crate::error::{SolveError, StopReason};
+use crate::linalg::DenseLu;
+use crate::model::{Model, Pose};
+use crate::newton::{self, LineSearchSystem, NewtonReport, NewtonSettings, StepRule};
+use crate::rod::Wrench;
+use crate::rod::tendon::TendonUnknown;
+
+/// Weight ε of the scaled leg unknowns in the least-norm IK step (q in metres). Without
+/// it the step can move far along null-space directions that change q little (measured:
+/// the line search then stalls; 1e-6 to 1e-4 converge in 3–5 steps).
+pub(crate) const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
+
+/// How the IK of the redundant (9-DoF) design chooses among its solutions.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Redundancy {
+    /// Least change of q at every Gauss–Newton step; limits not enforced (the default).
+    #[default]
+    LeastNorm,
+    /// Every q within its limits: each step a QP with the limits as bounds (cargo
+    /// feature `qp`; without it every solve that asks for it is an
+    /// [`Error::Input`](crate::error::Error::Input) naming the feature).
+    WithinLimits(Objective),
+}
+
+/// The secondary objective of [`Redundancy::WithinLimits`].
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Objective {
+    /// The least change of q from the guess (the warm start, or the straight-leg guess
+    /// of a cold solve), in units of each actuator's limit.
+    #[default]
+    LeastChange,
+    /// Close to a reference actuation \[m\] (n_q values), distances in units of each
+    /// actuator's limit: the steps start at the reference (clamped to the limits) and
+    /// pull towards it (see the module documentation for how far).
+    ClosestTo(Vec<f64>),
+}
+
+/// The IK of one pose in the unknowns x = \[q (n_q), y_u (solver tendon unknowns)\]:
+/// the boundary residual b (MODEL.md §3) and its blocks, kept for the step rules.
+pub(super) struct IkSystem<'a> {
+    pub(super) model: &'a Model,
+    pub(super) boundary: &'a mut BoundaryScratch,
+    /// The blocks of the last Jacobian evaluation (B_q and B_u are the step rules' input).
+    pub(super) blocks: &'a mut BoundaryJacobians,
+    pub(super) pose: &'a Pose,
+    pub(super) wrench: &'a Wrench,
+}
+
+impl<'a> IkSystem<'a> {
+    /// The evaluation point of x = \[q, y_u\].
+    fn point<'p>(&self, x: &'p [f64]) -> BoundaryPoint<'p>
+    where
+        'a: 'p,
+    {
+        let nq = self.model.n_actuators();
+        BoundaryPoint {
+            pose: self.pose,
+            q: &x[..nq],
+            wrench: self.wrench,
+            y_u: &x[nq..],
+            tendon_unknown: SOLVER_TENDON_UNKNOWN,
+        }
+    }
+
+    /// Newton by `rule` from q and y_u (γ leg unknowns): the IK state and the work done.
+    pub(super) fn solve<R: for<'s> StepRule<IkSystem<'s>>>(
+        &mut self,
+        rule: &mut R,
+        settings: &NewtonSettings,
+        q: &[f64],
+        y_u: &[f64],
+    ) -> Result<(RobotState, NewtonReport), SolveError> {
+        let nq = q.len();
+        let mut y = y_u.to_vec();
+        convert_tendon_unknowns(
+            self.model,
+            &mut y,
+            TendonUnknown::Gamma,
+            SOLVER_TENDON_UNKNOWN,
+        );
+        let mut x: Vec<f64> = q.iter().chain(&y).copied().collect();
+        let report = newton::solve_with_line_search(self, rule, &mut x, settings)?;
+        let y = x.split_off(nq);
+        Ok((RobotState::at_pose(self.model, self.pose, x, y), report))
+    }
+}
+
+impl LineSearchSystem for IkSystem<'_> {
+    fn dim(&self) -> usize {
+        self.model.n_residuals()
+    }
+
+    fn residual_and_jacobian(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        let p = self.point(x);
+        boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)
+    }
+
+    fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        let p = self.point(x);
+        boundary_residual(self.model, self.boundary, &p, r)
+    }
+
+    fn row_weights(&self, w: &mut DVector<f64>) {
+        row_weights(self.model, w);
+    }
+}
+
+/// The least-norm Gauss–Newton step: min ½‖δq‖² + ½ε‖D δy‖² subject to
+/// B_q δq + B_u δy = −b, from the KKT system (buffers for one IK size).
+pub(super) struct LeastNormStep {
+    kkt: DMatrix<f64>,
+    rhs: DVector<f64>,
+    lu: DenseLu,
+}
+
+impl LeastNormStep {
+    /// Buffers for the IK of `model`.
+    pub(super) fn new(model: &Model) -> Self {
+        let n = model.n_actuators() + 3 * model.n_leg_unknowns() + model.n_residuals();
+        Self {
+            kkt: DMatrix::zeros(n, n),
+            rhs: DVector::zeros(n),
+            lu: DenseLu::new(n),
+        }
+    }
+}
+
+impl StepRule<IkSystem<'_>> for LeastNormStep {
+    fn step(
+        &mut self,
+        system: &IkSystem<'_>,
+        _x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        _iteration: usize,
+    ) -> Result<Vec<f64>, StopReason> {
+        let model = system.model;
+        let (nq, nu, m) = (
+            model.n_actuators(),
+            3 * model.n_leg_unknowns(),
+            model.n_residuals(),
+        );
+        let (kkt, rhs) = (&mut self.kkt, &mut self.rhs);
+        // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,
+        // C = W B_u D⁻¹ (rows weighted, y columns scaled to unit norm; δy = D⁻¹ δỹ).
+        let mut a = system.blocks.b_q.clone();
+        let mut c = system.blocks.b_u.clone();
+        for i in 0..m {
+            a.row_mut(i).scale_mut(weights[i]);
+            c.row_mut(i).scale_mut(weights[i]);
+        }
+        let scale: Vec<f64> = (0..nu)
+            .map(|j| {
+                let norm = c.column(j).norm();
+                if norm > 0.0 { 1.0 / norm } else { 1.0 }
+            })
+            .collect();
+        for j in 0..nu {
+            c.column_mut(j).scale_mut(scale[j]);
+        }
+        kkt.fill(0.0);
+        rhs.fill(0.0);
+        for i in 0..nq {
+            kkt[(i, i)] = 1.0;
+        }
+        // A small weight on the (scaled) leg unknowns keeps the step out of the
+        // null-space directions that move y much and q little.
+        for j in 0..nu {
+            kkt[(nq + j, nq + j)] = LEAST_NORM_Y_WEIGHT;
+        }
+        kkt.view_mut((nq + nu, 0), (m, nq)).copy_from(&a);
+        kkt.view_mut((nq + nu, nq), (m, nu)).copy_from(&c);
+        kkt.view_mut((0, nq + nu), (nq, m))
+            .copy_from(&a.transpose());
+        kkt.view_mut((nq, nq + nu), (nu, m))
+            .copy_from(&c.transpose());
+        for i in 0..m {
+            rhs[nq + nu + i] = -r[i] * weights[i];
+        }
+        if self.lu.factor(kkt).is_err() {
+            return Err(StopReason::SingularLeastNormStep);
+        }
+        self.lu.solve_in_place(rhs);
+        for j in 0..nu {
+            rhs[nq + j] *= scale[j];
+        }
+        Ok(rhs.as_slice()[..nq + nu].to_vec())
+    }
+}
+
+/// IK of the redundant design by least-norm steps from `guess` (q and γ leg unknowns).
+///
+/// # Errors
+/// [`SolveError::NotConverged`] when the KKT system is singular, the line search fails
+/// or the settings stop the run; [`SolveError::NonFinite`] if a leg integration blows up.
+pub(super) fn least_norm_ik(
+    system: &mut IkSystem<'_>,
+    settings: &NewtonSettings,
+    guess: RobotState,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let mut rule = LeastNormStep::new(system.model);
+    system.solve(&mut rule, settings, &guess.q, &guess.y_u)
+}

@@ -1,0 +1,281 @@
+//! The shooting problem of FK and square IK (MODEL.md §3) as a [`NonlinearSystem`] for
+//! the dogleg Newton of [`crate::newton::solve`]: unknowns, residual row weights, the
+//! step limit at tendon kinks, the retraction of rotation unknowns, and the Newton run
+//! from a guess (with the tangent predictor of [`super::predictor`]).
+//!
+//! - FK: given q and the wrench, unknowns [p_ee (3), θ_ee (3), y_u (3 (6 + n_t))];
+//!   Jacobian \[B_x B_u\]. Rotation steps compose: R ← exp(δθ^) R.
+//! - IK (6-DoF design): given the pose and the wrench, unknowns \[q (6), y_u\];
+//!   Jacobian \[B_q B_u\].
+
+use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
+
+use super::predictor::{LastSolve, is_last_solution, predict};
+use super::state::RobotState;
+use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
+use crate::boundary::{
+    BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
+    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns,
+};
+use crate::error::SolveError;
+use crate::model::{Model, Pose};
+use crate::newton::{self, NewtonReport, NewtonSettings, NonlinearSystem};
+use crate::rod::Wrench;
+use crate::rod::tendon::TendonUnknown;
+
+/// What is being solved for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Problem<'a> {
+    Forward { q: &'a [f64] },
+    Inverse { pose: &'a Pose },
+}
+
+/// Tendon crossings earlier than this fraction of a Newton step do not limit it.
+const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
+
+/// Newton from `guess` on `problem`, with `scaled` replacing the model if given.
+pub(super) fn run_with(
+    solver: &mut Solver,
+    scaled: Option<&Model>,
+    settings: &NewtonSettings,
+    problem: Problem,
+    wrench: &Wrench,
+    guess: RobotState,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let model = scaled.unwrap_or(&solver.model);
+    let n_u = 3 * model.n_leg_unknowns();
+    let from_last = scaled.is_none() && is_last_solution(solver, problem, wrench, &guess);
+    let mut guess = guess;
+    convert_tendon_unknowns(
+        model,
+        &mut guess.y_u,
+        TendonUnknown::Gamma,
+        SOLVER_TENDON_UNKNOWN,
+    );
+    let (mut x, n_head) = match problem {
+        Problem::Forward { .. } => {
+            let mut x = DVector::zeros(6 + n_u);
+            x.rows_mut(0, 3).copy_from_slice(&guess.position);
+            x.rows_mut(3, 3).copy_from_slice(&guess.rotvec);
+            x.rows_mut(6, n_u).copy_from_slice(&guess.y_u);
+            (x, 6)
+        }
+        Problem::Inverse { .. } => {
+            let nq = model.n_actuators();
+            let mut x = DVector::zeros(nq + n_u);
+            x.rows_mut(0, nq).copy_from_slice(&guess.q);
+            x.rows_mut(nq, n_u).copy_from_slice(&guess.y_u);
+            (x, nq)
+        }
+    };
+    let predicted = if from_last {
+        predict(solver, problem, &x)
+    } else {
+        None
+    };
+    solver.last = None;
+    let mut system = ShootingSystem {
+        model,
+        boundary: &mut solver.boundary,
+        blocks: &mut solver.blocks,
+        method: solver.jacobian,
+        problem,
+        wrench,
+    };
+    // From the tangent prediction if there is one; from the guess itself if that fails.
+    let report = match predicted {
+        Some(mut xp) => match newton::solve(&mut system, &mut xp, settings, &mut solver.newton) {
+            Ok(r) => {
+                x = xp;
+                Ok(r)
+            }
+            Err(_) => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
+        },
+        None => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
+    }?;
+    let mut y_u: Vec<f64> = x.rows(n_head, n_u).iter().copied().collect();
+    convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+    let state = match problem {
+        Problem::Forward { q } => RobotState {
+            position: [x[0], x[1], x[2]],
+            rotvec: [x[3], x[4], x[5]],
+            q: q.to_vec(),
+            y_u,
+        },
+        Problem::Inverse { pose } => RobotState {
+            position: pose.position.into(),
+            rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                .scaled_axis()
+                .into(),
+            q: x.rows(0, n_head).iter().copied().collect(),
+            y_u,
+        },
+    };
+    if scaled.is_none() && solver.jacobian == JacobianMethod::Exact {
+        solver.last = Some(LastSolve {
+            state: state.clone(),
+            wrench: *wrench,
+            forward: matches!(problem, Problem::Forward { .. }),
+        });
+    }
+    Ok((state, report))
+}
+
+/// Merit-function weights of the residual rows: force rows by L²/(EI), moment rows by
+/// L/(EI), coupling rows by 1/L, tendon-length rows by 1/D (each row ~ an angle).
+pub(crate) fn row_weights(model: &Model, w: &mut DVector<f64>) {
+    let leg = &model.leg;
+    let ei = leg.bending_stiffness();
+    let len = leg.length;
+    let force = len * len / ei;
+    let moment = len / ei;
+    let length = 1.0 / leg.max_offset().max(1e-6);
+    let nu = model.n_leg_unknowns();
+    for i in 0..w.len() {
+        w[i] = if i < 3 {
+            force
+        } else if i < 6 {
+            moment
+        } else {
+            match (i - 6) % nu {
+                0..3 => 1.0 / len,
+                3..6 => moment,
+                _ => length,
+            }
+        };
+    }
+}
+
+/// The shooting problem as a [`NonlinearSystem`].
+struct ShootingSystem<'a> {
+    model: &'a Model,
+    boundary: &'a mut BoundaryScratch,
+    blocks: &'a mut BoundaryJacobians,
+    method: JacobianMethod,
+    problem: Problem<'a>,
+    wrench: &'a Wrench,
+}
+
+impl ShootingSystem<'_> {
+    fn head(&self) -> usize {
+        match self.problem {
+            Problem::Forward { .. } => 6,
+            Problem::Inverse { .. } => self.model.n_actuators(),
+        }
+    }
+
+    /// Evaluates the residual (and blocks if `jac` is given) at x.
+    fn evaluate(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: Option<&mut DMatrix<f64>>,
+    ) -> Result<(), SolveError> {
+        let head = self.head();
+        let (pose, q): (Pose, &[f64]) = match self.problem {
+            Problem::Forward { q } => (
+                Pose {
+                    position: Vector3::new(x[0], x[1], x[2]),
+                    rotation: *Rotation3::new(Vector3::new(x[3], x[4], x[5])).matrix(),
+                },
+                q,
+            ),
+            Problem::Inverse { pose } => (*pose, &x.as_slice()[..head]),
+        };
+        let p = BoundaryPoint {
+            pose: &pose,
+            q,
+            wrench: self.wrench,
+            y_u: &x.as_slice()[head..],
+            tendon_unknown: SOLVER_TENDON_UNKNOWN,
+        };
+        let Some(jac) = jac else {
+            return boundary_residual(self.model, self.boundary, &p, r);
+        };
+        match self.method {
+            JacobianMethod::Exact => {
+                boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?
+            }
+            JacobianMethod::FiniteDifference(m) => {
+                boundary_derivatives_fd(self.model, self.boundary, &p, m, r, self.blocks)?
+            }
+        }
+        let lead = match self.problem {
+            Problem::Forward { .. } => &self.blocks.b_x,
+            Problem::Inverse { .. } => &self.blocks.b_q,
+        };
+        jac.columns_mut(0, head).copy_from(lead);
+        jac.columns_mut(head, self.blocks.b_u.ncols())
+            .copy_from(&self.blocks.b_u);
+        Ok(())
+    }
+}
+
+impl NonlinearSystem for ShootingSystem<'_> {
+    fn dim(&self) -> usize {
+        self.model.n_residuals()
+    }
+
+    fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.evaluate(x, r, None)
+    }
+
+    fn residual_and_jacobian(
+        &mut self,
+        x: &DVector<f64>,
+        r: &mut DVector<f64>,
+        jac: &mut DMatrix<f64>,
+    ) -> Result<(), SolveError> {
+        self.evaluate(x, r, Some(jac))
+    }
+
+    fn row_weights(&self, w: &mut DVector<f64>) {
+        row_weights(self.model, w);
+    }
+
+    fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
+        // Stop at the first tendon that would cross between taut and slack (ζ = 0, the
+        // kink of the piecewise-linear variable): semismooth Newton otherwise cycles there.
+        // A crossing within the first 5 % of the step is let through (the tendon is at the
+        // kink already; stopping would stall the trust region).
+        let head = self.head();
+        let (nu, nt) = (self.model.n_leg_unknowns(), self.model.n_tendons());
+        let mut limit: f64 = 1.0;
+        for leg in 0..3 {
+            for k in 0..nt {
+                let i = head + leg * nu + k;
+                let (z, dz) = (x[i], step[i]);
+                if (z + dz) * z < 0.0 {
+                    let at = -z / dz;
+                    if at >= STEP_LIMIT_MIN_FRACTION {
+                        limit = limit.min(at);
+                    }
+                }
+            }
+        }
+        limit
+    }
+
+    fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
+        retract(self.problem, x, step, out);
+    }
+}
+
+/// x ⊕ step in the unknowns of `problem`: FK rotations compose, R ← exp(δθ^) R.
+pub(super) fn retract(
+    problem: Problem,
+    x: &DVector<f64>,
+    step: &DVector<f64>,
+    out: &mut DVector<f64>,
+) {
+    out.copy_from(x);
+    *out += step;
+    if let Problem::Forward { .. } = problem {
+        let r = Rotation3::new(Vector3::new(step[3], step[4], step[5]))
+            * Rotation3::new(Vector3::new(x[3], x[4], x[5]));
+        let phi = r.scaled_axis();
+        for c in 0..3 {
+            out[3 + c] = phi[c];
+        }
+    }
+}

@@ -1,0 +1,92 @@
+//! The solver's results: a configuration ([`RobotState`], also a warm start) and a
+//! converged solve ([`Solution`]: the state, the Newton work and the wrench it was
+//! solved under).
+
+use nalgebra::{Rotation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::SOLVER_TENDON_UNKNOWN;
+use crate::boundary::{BoundaryPoint, convert_tendon_unknowns};
+use crate::model::{Model, Pose};
+use crate::newton::NewtonReport;
+use crate::rod::Wrench;
+use crate::rod::tendon::TendonUnknown;
+
+/// A solved (or guessed) configuration; serializes to JSON and is accepted as a warm start.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotState {
+    /// Platform position p_ee \[m\].
+    pub position: [f64; 3],
+    /// Platform orientation as a rotation vector (axis × angle) \[rad\], world frame.
+    pub rotvec: [f64; 3],
+    /// Actuation q (per leg \[q_b per pair, q_t\]) \[m\].
+    pub q: Vec<f64>,
+    /// Leg unknowns y_u (per leg [γ (n_t), u(0) (3), v(0) (3)]).
+    pub y_u: Vec<f64>,
+}
+
+impl RobotState {
+    /// The platform pose.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            position: Vector3::from(self.position),
+            rotation: *Rotation3::new(Vector3::from(self.rotvec)).matrix(),
+        }
+    }
+
+    /// The boundary conditions' evaluation point of this state at its pose `pose`
+    /// (from [`RobotState::pose`]) under the total platform wrench `wrench`.
+    pub fn boundary_point<'a>(&'a self, pose: &'a Pose, wrench: &'a Wrench) -> BoundaryPoint<'a> {
+        BoundaryPoint {
+            pose,
+            q: &self.q,
+            wrench,
+            y_u: &self.y_u,
+            tendon_unknown: TendonUnknown::Gamma,
+        }
+    }
+
+    /// The IK state at `pose` with actuation `q` and leg unknowns `y_u` in the solver's
+    /// tendon variable (converted back to γ).
+    pub(crate) fn at_pose(model: &Model, pose: &Pose, q: Vec<f64>, mut y_u: Vec<f64>) -> Self {
+        convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+        RobotState {
+            position: pose.position.into(),
+            rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
+                .scaled_axis()
+                .into(),
+            q,
+            y_u,
+        }
+    }
+}
+
+/// A converged solve.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// The configuration.
+    pub state: RobotState,
+    /// Newton work and final residual norm.
+    pub report: NewtonReport,
+    /// Wall time of the solve \[µs\].
+    pub solve_time_us: f64,
+    /// The external wrench it was solved under, beyond the platform's weight (the `extra`
+    /// of the solve; the state is the equilibrium under it): [`Solver::analyze_solution`](super::Solver::analyze_solution)
+    /// needs nothing else.
+    pub extra: Wrench,
+}
+
+impl Solution {
+    /// Tension of every tendon \[N\], per leg.
+    pub fn tensions(&self, model: &Model) -> Vec<Vec<f64>> {
+        let nu = model.n_leg_unknowns();
+        (0..3)
+            .map(|i| {
+                self.state.y_u[i * nu..i * nu + model.n_tendons()]
+                    .iter()
+                    .map(|&g| crate::rod::tendon::tension(g))
+                    .collect()
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,314 @@
+//! The step rule of [`Redundancy::WithinLimits`](super::Redundancy::WithinLimits) (cargo feature `qp`): every Gauss–Newton
+//! step of the IK of the redundant design is a quadratic program (clarabel):
+//!
+//! minimize    ½‖δq̃‖² + ½ε‖δỹ‖²          (least change; towards a reference r:
+//!                                          ½‖q̃ + δq̃ − r̃‖² + ½ε‖δỹ‖²)
+//! subject to  W (B_q δq + B_u δy) = −W b     (linearized boundary conditions)
+//!             −1 ≤ q̃ + δq̃ ≤ 1                (actuation limits)
+//!
+//! with q̃ = q / q_lim (each actuator in units of its limit: `tendon_displacement` for
+//! bending, `base_translation` for translation), W the solver's residual row weights,
+//! ỹ the leg unknowns scaled to unit weighted Jacobian columns and ε = 1e-2 (the
+//! least-norm step's 1e-6 for q in metres, here for q in units of 10 mm): the least
+//! change of q in units of its range, within the range.
+//!
+//! clarabel's interior-point solution identifies the active limits; the step is then
+//! recomputed exactly from the KKT system with those limits as equalities (if that step
+//! respects the other limits), so the linearized boundary conditions hold to round-off
+//! and Newton keeps its quadratic convergence. A backtracking line search on the weighted
+//! residual only shortens steps, so every iterate stays within the limits (a box is
+//! convex) once one is. Converged when ‖b‖₂ ≤ tolerance.
+
+use clarabel::algebra::CscMatrix;
+use clarabel::solver::{
+    DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
+};
+use nalgebra::{DMatrix, DVector};
+
+use super::redundant::{IkSystem, LEAST_NORM_Y_WEIGHT, Objective};
+use super::state::RobotState;
+use crate::boundary::BoundaryJacobians;
+use crate::error::{SolveError, StopReason};
+use crate::linalg::DenseLu;
+use crate::model::Model;
+use crate::newton::{NewtonReport, NewtonSettings, StepRule};
+
+/// Weight ε of the scaled leg unknowns against q in units of its limits: the least-norm
+/// step's weight (1e-6 against q in metres) for q of 10 mm.
+const Y_WEIGHT: f64 = LEAST_NORM_Y_WEIGHT / (0.01 * 0.01);
+
+/// The same weight in steps towards a reference: small, so that the boundary
+/// conditions are met by the leg unknowns before q leaves the reference.
+const REFERENCE_Y_WEIGHT: f64 = 1e-8;
+
+/// IK of the system's pose within the limits, from `guess` (q and γ leg unknowns).
+///
+/// # Errors
+/// [`SolveError::NotConverged`] when a QP step is infeasible (the pose needs q outside
+/// its limits, to first order), the line search fails, or the iteration limit is reached;
+/// [`SolveError::NonFinite`] if a leg integration blows up.
+pub(super) fn within_limits_ik(
+    system: &mut IkSystem<'_>,
+    settings: &NewtonSettings,
+    guess: RobotState,
+    objective: &Objective,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let limits = actuation_limits(system.model);
+    let mut spent = 0;
+    if let Objective::ClosestTo(reference) = objective {
+        if reference.len() == limits.len() {
+            let q: Vec<f64> = reference
+                .iter()
+                .zip(&limits)
+                .map(|(r, l)| r.clamp(-l, *l))
+                .collect();
+            let mut rule = QpStep {
+                limits: &limits,
+                reference: Some(reference),
+                max_iterations: settings.max_iterations,
+            };
+            match system.solve(&mut rule, settings, &q, &guess.y_u) {
+                Ok(done) => return Ok(done),
+                Err(SolveError::NotConverged { iterations, .. }) => spent = iterations,
+                Err(_) => {}
+            }
+        }
+    }
+    let mut rule = QpStep {
+        limits: &limits,
+        reference: None,
+        max_iterations: settings.max_iterations,
+    };
+    let (state, mut report) = system.solve(&mut rule, settings, &guess.q, &guess.y_u)?;
+    report.iterations += spent;
+    Ok((state, report))
+}
+
+/// Symmetric limit of each actuator \[m\].
+fn actuation_limits(model: &Model) -> Vec<f64> {
+    (0..model.n_actuators())
+        .map(|j| {
+            if j % (model.pairs + 1) < model.pairs {
+                model.limits.tendon_displacement
+            } else {
+                model.limits.base_translation
+            }
+        })
+        .collect()
+}
+
+/// The QP step within the limits: towards `reference` (least change without) for at most
+/// half the iteration budget, then least-change steps.
+struct QpStep<'a> {
+    /// Symmetric limit of each actuator \[m\].
+    limits: &'a [f64],
+    /// The reference actuation \[m\] of [`Objective::ClosestTo`].
+    reference: Option<&'a [f64]>,
+    /// The run's iteration limit (the pull stops after half of it).
+    max_iterations: usize,
+}
+
+impl StepRule<IkSystem<'_>> for QpStep<'_> {
+    fn step(
+        &mut self,
+        system: &IkSystem<'_>,
+        x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        iteration: usize,
+    ) -> Result<Vec<f64>, StopReason> {
+        let q = &x[..self.limits.len()];
+        let towards = self
+            .reference
+            .filter(|_| 2 * iteration < self.max_iterations);
+        let qp = StepQp::new(system.blocks, weights, r, q, self.limits, towards);
+        let z = qp.solve()?;
+        let (mut dq, dy) = qp.unscale(&z);
+        dq.extend(dy);
+        Ok(dq)
+    }
+}
+
+/// One Newton step's QP in the scaled variables z = \[δq̃ (n_q), δỹ (n_y)\]:
+/// minimize ½ zᵀ P z + cᵀ z subject to A z = b_eq and G z ≤ h.
+struct StepQp {
+    /// Diagonal of P.
+    p: Vec<f64>,
+    /// c: q̃ − r̃ towards a reference, else 0.
+    c: Vec<f64>,
+    /// Equality rows (m × n): W \[B_q L, B_u S\].
+    a_eq: DMatrix<f64>,
+    /// −W b.
+    b_eq: Vec<f64>,
+    /// Limit rows: ±δq̃_j.
+    g: DMatrix<f64>,
+    /// 1 ∓ q̃_j.
+    h: Vec<f64>,
+    /// Actuator limits L \[m\].
+    limits: Vec<f64>,
+    /// Column scales S of δy.
+    y_scale: Vec<f64>,
+}
+
+impl StepQp {
+    fn new(
+        blocks: &BoundaryJacobians,
+        weights: &DVector<f64>,
+        r: &DVector<f64>,
+        q: &[f64],
+        limits: &[f64],
+        reference: Option<&[f64]>,
+    ) -> Self {
+        let (nq, ny, m) = (q.len(), blocks.b_u.ncols(), r.len());
+        let n = nq + ny;
+        let mut a_eq = DMatrix::zeros(m, n);
+        for j in 0..nq {
+            for i in 0..m {
+                a_eq[(i, j)] = weights[i] * blocks.b_q[(i, j)] * limits[j];
+            }
+        }
+        let mut y_scale = vec![1.0; ny];
+        for j in 0..ny {
+            let col = blocks.b_u.column(j).component_mul(weights);
+            let norm = col.norm();
+            y_scale[j] = if norm > 0.0 { 1.0 / norm } else { 1.0 };
+            a_eq.column_mut(nq + j).copy_from(&(col * y_scale[j]));
+        }
+        let b_eq = (0..m).map(|i| -weights[i] * r[i]).collect();
+        let y_weight = if reference.is_some() {
+            REFERENCE_Y_WEIGHT
+        } else {
+            Y_WEIGHT
+        };
+        let mut p = vec![y_weight; n];
+        p[..nq].fill(1.0);
+        let mut c = vec![0.0; n];
+        if let Some(r) = reference {
+            for j in 0..nq {
+                c[j] = (q[j] - r[j]) / limits[j];
+            }
+        }
+        let mut g = DMatrix::zeros(2 * nq, n);
+        let mut h = vec![0.0; 2 * nq];
+        for j in 0..nq {
+            let q_tilde = q[j] / limits[j];
+            g[(2 * j, j)] = 1.0;
+            h[2 * j] = 1.0 - q_tilde;
+            g[(2 * j + 1, j)] = -1.0;
+            h[2 * j + 1] = 1.0 + q_tilde;
+        }
+        Self {
+            p,
+            c,
+            a_eq,
+            b_eq,
+            g,
+            h,
+            limits: limits.to_vec(),
+            y_scale,
+        }
+    }
+
+    /// The step z: clarabel's solution, polished on its active set.
+    fn solve(&self) -> Result<DVector<f64>, StopReason> {
+        let (m, n) = self.a_eq.shape();
+        let k = self.g.nrows();
+        let mut a = DMatrix::zeros(m + k, n);
+        a.rows_mut(0, m).copy_from(&self.a_eq);
+        a.rows_mut(m, k).copy_from(&self.g);
+        let b: Vec<f64> = self.b_eq.iter().chain(&self.h).copied().collect();
+        let p = CscMatrix::new(n, n, (0..=n).collect(), (0..n).collect(), self.p.clone());
+        let settings = DefaultSettings {
+            verbose: false,
+            ..DefaultSettings::default()
+        };
+        let mut solver = DefaultSolver::new(
+            &p,
+            &self.c,
+            &dense_to_csc(&a),
+            &b,
+            &[ZeroConeT(m), NonnegativeConeT(k)],
+            settings,
+        )
+        .map_err(|_| StopReason::QpStepFailed)?;
+        solver.solve();
+        let sol = &solver.solution;
+        match sol.status {
+            SolverStatus::Solved | SolverStatus::AlmostSolved => {}
+            SolverStatus::PrimalInfeasible | SolverStatus::AlmostPrimalInfeasible => {
+                return Err(StopReason::NoStepWithinLimits);
+            }
+            _ => return Err(StopReason::QpStepFailed),
+        }
+        // Active limits: slack below its multiplier (complementarity).
+        let active: Vec<usize> = (0..k).filter(|&i| sol.s[m + i] < sol.z[m + i]).collect();
+        Ok(self
+            .polish(&active)
+            .unwrap_or_else(|| DVector::from_column_slice(&sol.x)))
+    }
+
+    /// The exact minimizer with the `active` limits as equalities, if it respects the
+    /// others.
+    fn polish(&self, active: &[usize]) -> Option<DVector<f64>> {
+        let (m, n) = self.a_eq.shape();
+        let rows_n = m + active.len();
+        let mut rows = DMatrix::zeros(rows_n, n);
+        rows.rows_mut(0, m).copy_from(&self.a_eq);
+        let mut rhs = DVector::zeros(n + rows_n);
+        for i in 0..m {
+            rhs[n + i] = self.b_eq[i];
+        }
+        for (r, &i) in active.iter().enumerate() {
+            rows.row_mut(m + r).copy_from(&self.g.row(i));
+            rhs[n + m + r] = self.h[i];
+        }
+        for j in 0..n {
+            rhs[j] = -self.c[j];
+        }
+        let mut kkt = DMatrix::zeros(n + rows_n, n + rows_n);
+        kkt.set_partial_diagonal(self.p.iter().copied());
+        kkt.view_mut((n, 0), (rows_n, n)).copy_from(&rows);
+        kkt.view_mut((0, n), (n, rows_n))
+            .copy_from(&rows.transpose());
+        let mut lu = DenseLu::new(n + rows_n);
+        lu.factor(&kkt).ok()?;
+        lu.solve_in_place(&mut rhs);
+        let z = rhs.rows(0, n).into_owned();
+        let slack = DVector::from_column_slice(&self.h) - &self.g * &z;
+        let feasible = slack.iter().all(|s| *s >= -1e-9) && z.iter().all(|x| x.is_finite());
+        feasible.then_some(z)
+    }
+
+    /// δq \[m\] and δy (solver variables) of a scaled step.
+    fn unscale(&self, z: &DVector<f64>) -> (Vec<f64>, Vec<f64>) {
+        let nq = self.limits.len();
+        let dq = (0..nq).map(|j| z[j] * self.limits[j]).collect();
+        let dy = self
+            .y_scale
+            .iter()
+            .enumerate()
+            .map(|(j, s)| z[nq + j] * s)
+            .collect();
+        (dq, dy)
+    }
+}
+
+/// A dense matrix in clarabel's compressed-column form (zeros dropped).
+fn dense_to_csc(a: &DMatrix<f64>) -> CscMatrix<f64> {
+    let (m, n) = a.shape();
+    let mut colptr = Vec::with_capacity(n + 1);
+    let mut rowval = Vec::new();
+    let mut nzval = Vec::new();
+    colptr.push(0);
+    for j in 0..n {
+        for i in 0..m {
+            let v = a[(i, j)];
+            if v != 0.0 {
+                rowval.push(i);
+                nzval.push(v);
+            }
+        }
+        colptr.push(nzval.len());
+    }
+    CscMatrix::new(m, n, colptr, rowval, nzval)
+}
