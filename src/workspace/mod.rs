@@ -46,7 +46,7 @@
 //! validity of a point), `predict` (the warm start of a step), `cells` (the cell map,
 //! [`WorkspacePoint`]), `ends` ([`RayEnds`], [`PathEnd`]), `summary` ([`WorkspaceSummary`]),
 //! [`metrics`] (the measures of a point), [`collision`], and the output in [`files`] and
-//! [`figures`].
+//! `figures` (feature `plots`).
 
 pub mod collision;
 #[cfg(feature = "plots")]
