@@ -193,3 +193,29 @@ fn every_ik_loop_honours_the_progress_check() {
         );
     }
 }
+
+/// A within-limits IK overwrites the solver's Jacobian blocks, so the warm FK after it
+/// must not predict from the FK solution before it: it takes exactly the steps of a fresh
+/// solver from the same start (before the fix it predicted with the IK's B_q).
+#[test]
+fn a_within_limits_ik_leaves_no_stale_prediction_for_the_next_warm_fk() {
+    let d = design();
+    let w = Wrench::default();
+    let mut s = Solver::new(&d).unwrap();
+    s.redundancy = Redundancy::WithinLimits(Objective::LeastChange);
+    let (start, target) = start_and_target(&mut s);
+    // The last solve is the FK at `target`; an IK at another pose comes between.
+    s.solve_ik(&start.pose(), &w, Some(&target)).unwrap();
+    let mut q = target.q.clone();
+    q[0] += 0.001;
+    let after_ik = s.solve_fk(&q, &w, Some(&target)).unwrap();
+    let fresh = Solver::new(&d)
+        .unwrap()
+        .solve_fk(&q, &w, Some(&target))
+        .unwrap();
+    assert_eq!(after_ik.state, fresh.state);
+    assert_eq!(
+        after_ik.report.jacobian_evaluations,
+        fresh.report.jacobian_evaluations
+    );
+}

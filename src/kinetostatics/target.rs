@@ -49,6 +49,8 @@ pub(super) fn solve_target(
             guess,
         ),
         Target::Inverse(pose) => {
+            // Both step rules overwrite the blocks the tangent predictor reads.
+            solver.last = None;
             let mut system = IkSystem {
                 model: scaled.unwrap_or(&solver.model),
                 boundary: &mut solver.boundary,
@@ -57,10 +59,7 @@ pub(super) fn solve_target(
                 wrench,
             };
             match &solver.redundancy {
-                Redundancy::LeastNorm => {
-                    solver.last = None;
-                    least_norm_ik(&mut system, settings, guess)
-                }
+                Redundancy::LeastNorm => least_norm_ik(&mut system, settings, guess),
                 #[cfg(feature = "qp")]
                 Redundancy::WithinLimits(objective) => {
                     super::within_limits::within_limits_ik(&mut system, settings, guess, objective)
