@@ -10,7 +10,10 @@
 //!
 //! Stopping: converged when the Euclidean norm of the unweighted SI residual is at most
 //! [`NewtonSettings::tolerance`]; failure when the iteration limit is reached or the trust
-//! region shrinks below 1e-14 of ‖D x‖ (no further progress possible in double precision).
+//! region shrinks below 1e-14 of ‖D x‖ (no further progress possible in double precision),
+//! except that a collapsed trust region with ‖F‖₂ within [`FLOOR_FACTOR`] of the residual's
+//! round-off floor ([`round_off_floor`]) is converged too
+//! ([`NewtonReport::converged_at_floor`]; MODEL.md "Convergence at the round-off floor").
 
 use nalgebra::{DMatrix, DVector};
 
@@ -59,10 +62,33 @@ pub trait NonlinearSystem {
     }
 }
 
+/// A run whose trust region collapses is converged when ‖F‖₂ ≤ `FLOOR_FACTOR` × its
+/// round-off floor ([`round_off_floor`]): no step representable in double precision can
+/// reduce it further, and it is as small as the arithmetic allows.
+pub const FLOOR_FACTOR: f64 = 10.0;
+
+/// The round-off floor of ‖F‖₂ at `x` (SI): ε ‖(Σ_j |J_ij| |x_j|)_i‖₂ with J = ∂F/∂x. Row i
+/// sums terms of about that size (for a rod, the internal force EA·(v − 1) cancels a
+/// tension or a load: its round-off is ε·EA), and x itself is known only to ε|x_j|, so F
+/// cannot be made reliably smaller.
+pub fn round_off_floor(jac: &DMatrix<f64>, x: &DVector<f64>) -> f64 {
+    let mut sum_sq = 0.0;
+    for i in 0..jac.nrows() {
+        let row: f64 = (0..jac.ncols())
+            .map(|j| jac[(i, j)].abs() * x[j].abs())
+            .sum();
+        sum_sq += (f64::EPSILON * row).powi(2);
+    }
+    sum_sq.sqrt()
+}
+
 /// Stopping and globalization settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonSettings {
-    /// Converged when ‖F(x)‖₂ (SI, unweighted) ≤ tolerance.
+    /// Converged when ‖F(x)‖₂ (SI, unweighted) ≤ tolerance; a square solve ([`solve`])
+    /// whose trust region collapses is also converged when ‖F‖₂ ≤ [`FLOOR_FACTOR`] × its
+    /// round-off floor ([`round_off_floor`]), for robots whose floor is above the tolerance
+    /// (reported as [`NewtonReport::converged_at_floor`]).
     pub tolerance: f64,
     /// Most Jacobian evaluations (Newton iterations).
     pub max_iterations: usize,
@@ -199,6 +225,9 @@ pub struct NewtonReport {
     pub jacobian_evaluations: usize,
     /// Final ‖F(x)‖₂ (SI).
     pub residual_norm: f64,
+    /// Converged at the round-off floor: the trust region collapsed with ‖F‖₂ above the
+    /// tolerance but within [`FLOOR_FACTOR`] of [`round_off_floor`].
+    pub converged_at_floor: bool,
 }
 
 impl NewtonReport {
@@ -209,6 +238,7 @@ impl NewtonReport {
             residual_evaluations: 0,
             jacobian_evaluations: 0,
             residual_norm: f64::NAN,
+            converged_at_floor: false,
         }
     }
 
@@ -358,6 +388,7 @@ pub fn solve<S: NonlinearSystem>(
             residual_evaluations: evaluations,
             jacobian_evaluations: jacobians,
             residual_norm: norm,
+            converged_at_floor: false,
         };
         if let Some(end) = settings.outcome(&report, sc.history[0]) {
             return end;
@@ -524,6 +555,19 @@ pub fn solve<S: NonlinearSystem>(
             }
             rejected = true;
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
+                // The factored Jacobian is row-weighted: unweight it for the SI floor.
+                for i in 0..n {
+                    let w = sc.weights[i];
+                    for j in 0..n {
+                        sc.jac_trial[(i, j)] = sc.jac[(i, j)] / w;
+                    }
+                }
+                if norm <= FLOOR_FACTOR * round_off_floor(&sc.jac_trial, x) {
+                    return Ok(NewtonReport {
+                        converged_at_floor: true,
+                        ..report
+                    });
+                }
                 return Err(settings.not_converged(&report, StopReason::TrustRegionCollapsed));
             }
         };
