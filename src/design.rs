@@ -23,6 +23,10 @@ pub const MAX_TENDONS: usize = 12;
 /// 26 steps (and a count of 100 000 ran for minutes without a word).
 pub const MAX_DISKS: usize = 1000;
 
+/// Longest rod length accepted \[m\]: far beyond any continuum robot (the bundled designs'
+/// legs are 0.145-0.2 m); longer rods only diverge.
+pub const MAX_LEG_LENGTH: f64 = 10.0;
+
 /// Default number of fixed integration steps over the whole leg length.
 pub const DEFAULT_INTEGRATION_STEPS: usize = 26;
 
@@ -206,6 +210,16 @@ impl Leg {
     pub fn check(&self, prefix: &str, v: &mut Violations) {
         let f = |name: &str| format!("{prefix}.{name}");
         check_positive(v, &f("length"), self.length, "m");
+        if self.length.is_finite() && self.length > MAX_LEG_LENGTH {
+            v.push(
+                f("length"),
+                self.length,
+                &format!(
+                    "<= {MAX_LEG_LENGTH} m (a continuum robot's rod; the bundled designs' \
+                     are 0.145-0.2 m)"
+                ),
+            );
+        }
         check_positive(v, &f("backbone_radius"), self.backbone_radius, "m");
         check_positive(v, &f("youngs_modulus"), self.youngs_modulus, "Pa");
         if !(self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {

@@ -196,6 +196,121 @@ pub enum SolveError {
         /// Where it appeared.
         stage: &'static str,
     },
+    /// Some steps of a trajectory failed ([`crate::trajectory`]).
+    #[error(
+        "{failed} of {steps} trajectory steps failed; the first at step {first_step}: {first_failure}"
+    )]
+    TrajectoryStepsFailed {
+        /// Steps that failed.
+        failed: usize,
+        /// Steps in the trajectory.
+        steps: usize,
+        /// Index of the first failed step (0-based, header excluded).
+        first_step: usize,
+        /// Why it failed.
+        first_failure: String,
+    },
+    /// The solve diverged (a NaN or infinity appeared), told in the user's terms: the
+    /// inputs beyond their natural scale, largest factor first ([`crate::input_range`]),
+    /// what to try, then where it went non-finite.
+    #[error("{}", diverged_message(inputs, stage))]
+    Diverged {
+        /// Where the state went non-finite (the technical detail).
+        stage: &'static str,
+        /// The inputs beyond their natural scale (factor > 1), largest factor first.
+        inputs: Vec<OutOfRange>,
+    },
+}
+
+/// The message of [`SolveError::Diverged`].
+fn diverged_message(inputs: &[OutOfRange], stage: &str) -> String {
+    let mut s = String::from("the solve diverged");
+    if inputs.is_empty() {
+        s.push_str(" (no input is beyond the design's natural scales)");
+    } else {
+        for (k, i) in inputs.iter().enumerate() {
+            s.push_str(if k == 0 { ": " } else { "; " });
+            s.push_str(&i.to_string());
+        }
+    }
+    s.push_str(
+        ". Try a smaller step: solve an input nearer the design's range first, then \
+         approach the target in steps, each warm-started from the last solution \
+         (CLI: --init). Detail: ",
+    );
+    s.push_str(&format!("non-finite value in {stage}"));
+    s
+}
+
+/// An input of a solve measured against its natural scale in the design (e.g. q against
+/// the actuation limit): the words of [`SolveError::Diverged`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct OutOfRange {
+    /// The input, e.g. `q[0]` or `tensions[1]`.
+    pub input: String,
+    /// Its magnitude, in `unit`.
+    pub value: f64,
+    /// Unit of `value` and `scale`.
+    pub unit: &'static str,
+    /// The natural scale of the input in the design, in `unit`.
+    pub scale: f64,
+    /// How many times its scale the input is (`value / scale`).
+    pub factor: f64,
+    /// What the scale is, e.g. `the actuation limit actuation_limits.tendon_displacement`.
+    pub meaning: String,
+}
+
+impl OutOfRange {
+    /// `input` of magnitude `value` against its `scale` (which `meaning` explains).
+    pub fn new(input: String, value: f64, unit: &'static str, scale: f64, meaning: &str) -> Self {
+        Self {
+            input,
+            value,
+            unit,
+            scale,
+            factor: value / scale,
+            meaning: meaning.to_string(),
+        }
+    }
+}
+
+impl fmt::Display for OutOfRange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} = {} {} is {} times {} ({} {})",
+            self.input,
+            short_number(self.value),
+            self.unit,
+            short_number(self.factor),
+            self.meaning,
+            short_number(self.scale),
+            self.unit
+        )
+    }
+}
+
+/// `x` with four significant digits, trailing zeros dropped: `100`, `0.01`, `1.13e6`.
+pub(crate) fn short_number(x: f64) -> String {
+    let trim = |t: String| {
+        if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            t
+        }
+    };
+    if x == 0.0 || !x.is_finite() {
+        return x.to_string();
+    }
+    let exponent = x.abs().log10().floor() as i32;
+    if (-3..6).contains(&exponent) {
+        let decimals = (3 - exponent).max(0) as usize;
+        trim(format!("{x:.decimals$}"))
+    } else {
+        let t = format!("{x:.3e}");
+        let (mantissa, exp) = t.split_once('e').unwrap_or((&t, "0"));
+        format!("{}e{exp}", trim(mantissa.to_string()))
+    }
 }
 
 /// An analysis that cannot be carried out.
@@ -290,7 +405,37 @@ impl From<crate::output::WriteError> for Error {
 
 #[cfg(test)]
 mod tests {
-    use super::StopReason;
+    use super::{OutOfRange, SolveError, StopReason, short_number};
+
+    #[test]
+    fn short_numbers_keep_four_significant_digits() {
+        let shown: Vec<String> = [100.0, 0.01, 1.13456, 1.13456e6, 2.5e-5, 0.0]
+            .iter()
+            .map(|&x| short_number(x))
+            .collect();
+        assert_eq!(shown, ["100", "0.01", "1.135", "1.135e6", "2.5e-5", "0"]);
+    }
+
+    #[test]
+    fn a_divergence_names_the_input_its_factor_what_to_try_and_the_stage() {
+        let e = SolveError::Diverged {
+            stage: "rod strain derivatives (eq. 5)",
+            inputs: vec![OutOfRange::new(
+                "q[0]".to_string(),
+                1.0,
+                "m",
+                0.01,
+                "the actuation limit",
+            )],
+        };
+        assert_eq!(
+            e.to_string(),
+            "the solve diverged: q[0] = 1 m is 100 times the actuation limit (0.01 m). \
+             Try a smaller step: solve an input nearer the design's range first, then \
+             approach the target in steps, each warm-started from the last solution \
+             (CLI: --init). Detail: non-finite value in rod strain derivatives (eq. 5)"
+        );
+    }
 
     #[test]
     fn stop_reasons_serialize_as_their_stable_names_and_read_as_sentences() {

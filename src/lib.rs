@@ -106,6 +106,7 @@ pub mod boundary;
 pub mod cli_support;
 pub mod design;
 pub mod error;
+pub mod input_range;
 pub mod jacobian_check;
 pub mod kinetostatics;
 pub mod linalg;

@@ -10,6 +10,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::design::{MAX_TENDONS, Tdcr};
 use crate::error::{Error, SolveError, Violations};
+use crate::input_range::{diverged_if_non_finite, tdcr_inputs};
 use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
 use crate::rod::tendon::{slack, slack_derivative, tension, tension_derivative};
 use crate::rod::{
@@ -142,7 +143,8 @@ impl TdcrSolver {
         let scratch = &mut self.newton[usize::from(displacement)];
         let mut system =
             TdcrSystem::new(&self.model, &mut self.leg, &mut self.sens, control, wrench);
-        let report = newton::solve(&mut system, &mut x, &self.settings, scratch)?;
+        let report = newton::solve(&mut system, &mut x, &self.settings, scratch)
+            .map_err(|e| diverged_if_non_finite(e, || tdcr_inputs(&self.model, control, wrench)))?;
         let state = unpack(&x, n_gamma);
         let tensions: Vec<f64> = match control {
             TendonControl::Tension(t) => t.clone(),

@@ -1,5 +1,11 @@
 //! Sequences of solves, each warm-started from the previous solution (paper Tab. VII):
 //! per-step results and timing statistics. (Reading the targets from CSV is the CLI's.)
+//!
+//! Recovery rule: a step starts warm from the previous step's solution when that step
+//! converged; after a failed step, the next step starts cold (as the first step does), so
+//! a failure never leaves later steps starting from a stale solution. A failed step has
+//! no residual (`residual_norm` is `None`) unless Newton ran and stopped, and its
+//! `error` says why; [`Stats`] counts the failed steps and names the first.
 
 use nalgebra::Rotation3;
 use serde::Serialize;
@@ -33,8 +39,11 @@ pub struct StepResult {
     pub q: Vec<f64>,
     /// Newton iterations.
     pub iterations: usize,
-    /// Final residual norm (NaN-free: the last norm reached when not converged).
-    pub residual_norm: f64,
+    /// Final residual norm (of the best point when Newton stopped without converging;
+    /// `None` when the step has no residual, e.g. it diverged).
+    pub residual_norm: Option<f64>,
+    /// Why the step failed (`None` when it converged).
+    pub error: Option<String>,
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
 }
@@ -54,12 +63,16 @@ pub struct Stats {
     pub median_iterations: f64,
     /// Steps that did not converge.
     pub failed: usize,
+    /// Index of the first step that did not converge.
+    pub first_failed_step: Option<usize>,
+    /// Why the first failed step failed.
+    pub first_failure: Option<String>,
 }
 
-/// Solves every target in order, each step warm-started from the last converged state
+/// Solves every target in order, each step warm-started from the previous step's solution
 /// (the first from a cold start), which lets the solver predict the step from its exact
-/// Jacobian there. A failed step is recorded and the next one starts from the last
-/// converged state.
+/// Jacobian there. A failed step is recorded and the next one starts cold (the recovery
+/// rule of the module doc).
 pub fn run_trajectory(
     solver: &mut Solver,
     targets: &Targets,
@@ -88,20 +101,23 @@ pub fn run_trajectory(
                     rotvec: sol.state.rotvec,
                     q: sol.state.q.clone(),
                     iterations: sol.report.iterations,
-                    residual_norm: sol.report.residual_norm,
+                    residual_norm: Some(sol.report.residual_norm),
+                    error: None,
                     solve_time_us: sol.solve_time_us,
                 };
                 state = Some(sol.state);
                 r
             }
             Err(e) => {
+                // Recovery rule: the next step starts cold, not from a stale solution.
+                state = None;
                 let (iterations, residual_norm) = match &e {
                     Error::Solve(crate::SolveError::NotConverged {
                         iterations,
                         residual_norm,
                         ..
-                    }) => (*iterations, *residual_norm),
-                    _ => (0, f64::INFINITY),
+                    }) => (*iterations, Some(*residual_norm).filter(|r| r.is_finite())),
+                    _ => (0, None),
                 };
                 let (position, rotvec, q) = match targets {
                     Targets::Poses(p) => (
@@ -120,11 +136,8 @@ pub fn run_trajectory(
                     rotvec,
                     q,
                     iterations,
-                    residual_norm: if residual_norm.is_finite() {
-                        residual_norm
-                    } else {
-                        f64::MAX
-                    },
+                    residual_norm,
+                    error: Some(e.to_string()),
                     solve_time_us: elapsed,
                 }
             }
@@ -135,6 +148,7 @@ pub fn run_trajectory(
 }
 
 fn stats_of(steps: &[StepResult]) -> Stats {
+    let first_failed = steps.iter().find(|s| !s.converged);
     let mut times: Vec<f64> = steps.iter().map(|s| s.solve_time_us).collect();
     times.sort_by(f64::total_cmp);
     let mut its: Vec<f64> = steps.iter().map(|s| s.iterations as f64).collect();
@@ -155,6 +169,8 @@ fn stats_of(steps: &[StepResult]) -> Stats {
         max_us: times.last().copied().unwrap_or(0.0),
         median_iterations: median(&its),
         failed: steps.iter().filter(|s| !s.converged).count(),
+        first_failed_step: first_failed.map(|s| s.step),
+        first_failure: first_failed.and_then(|s| s.error.clone()),
     }
 }
 
@@ -165,13 +181,14 @@ mod tests {
     #[test]
     fn stats_use_all_steps() {
         let step = |t: f64, ok: bool| StepResult {
-            step: 0,
+            step: t as usize,
             converged: ok,
             position: [0.0; 3],
             rotvec: [0.0; 3],
             q: vec![],
             iterations: 2,
-            residual_norm: 0.0,
+            residual_norm: None,
+            error: (!ok).then(|| "why".to_string()),
             solve_time_us: t,
         };
         let s = stats_of(&[
@@ -184,5 +201,7 @@ mod tests {
             (s.median_us, s.mean_us, s.max_us, s.failed),
             (2.5, 4.0, 10.0, 1)
         );
+        assert_eq!(s.first_failed_step, Some(10));
+        assert_eq!(s.first_failure.as_deref(), Some("why"));
     }
 }

@@ -781,3 +781,108 @@ fn a_closed_stdout_ends_the_program_without_a_panic() {
         stderr(&o)
     );
 }
+
+/// A design file: the bundled paper design with `from` replaced by `to`.
+fn design_with(name: &str, from: &str, to: &str) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(design()).unwrap();
+    assert!(text.contains(from));
+    let path = std::env::temp_dir().join(format!("tdpcr-{name}-{}.ron", std::process::id()));
+    std::fs::write(&path, text.replacen(from, to, 1)).unwrap();
+    path
+}
+
+/// A diverged solve exits 1 and names the input, its factor, what to try, then the stage.
+fn assert_diverged(o: &Output, input: &str, factor: &str) {
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(o));
+    let e = stderr(o);
+    assert!(e.starts_with("error: the solve diverged: "), "{e}");
+    assert!(
+        e.contains(input) && e.contains(&format!("is {factor} times")),
+        "{e}"
+    );
+    assert!(e.contains("Try a smaller step"), "{e}");
+    assert!(
+        e.contains("non-finite value in rod strain derivatives (eq. 5)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_diverged_solve_names_the_input_far_outside_the_design_range() {
+    let o = tdpcr(&["fk", &design(), "--q", "1,1,1,1,1,1", "--format", "json"]);
+    assert_diverged(&o, "q[0] = 1 m", "100");
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["converged"], serde_json::Value::Bool(false));
+    assert!(v["error"].as_str().unwrap().contains("diverged"));
+    assert!(v.get("stop_reason").is_some());
+    assert_eq!(v["diverged_inputs"][0]["factor"].as_f64(), Some(100.0));
+    let o = tdpcr(&[
+        "fk",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--wrench",
+        "1e6,0,0,0,0,0",
+    ]);
+    assert_diverged(&o, "wrench force 1e6 N", "881312");
+    let heavy = design_with("heavy", "mass: 0.0344", "mass: 1000.0");
+    let o = tdpcr(&["fk", heavy.to_str().unwrap(), "--q", "0,0,0,0,0,0"]);
+    assert_diverged(&o, "weight 9810 N of platform.mass", "8646");
+    let o = tdpcr(&["tdcr", &robot(), "--tensions", "1e6,0"]);
+    assert_diverged(&o, "tensions[0] = 1e6 N", "273511");
+    // A 1e9 m leg is bad input: rejected by the design's rule, exit 2.
+    let long = design_with("long", "length: 0.145,", "length: 1e9,");
+    let o = tdpcr(&["fk", long.to_str().unwrap(), "--q", "0,0,0,0,0,0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("leg.length = 1000000000: expected <= 10 m"),
+        "{}",
+        stderr(&o)
+    );
+    std::fs::remove_file(heavy).ok();
+    std::fs::remove_file(long).ok();
+}
+
+#[test]
+fn a_trajectory_that_leaves_the_workspace_counts_its_failures_and_recovers() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-leave-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("poses.csv");
+    // Home, far out of reach, home again, a small step: the steps after re-entry converge.
+    std::fs::write(
+        &path,
+        "x,y,z,rx,ry,rz\n0,0,-0.0124,0,0,0.1306\n0,0,0.6,0,0,0.1306\n\
+         0,0,-0.0124,0,0,0.1306\n0.001,0,-0.0124,0,0,0.1306\n",
+    )
+    .unwrap();
+    let o = tdpcr(&[
+        "trajectory",
+        &design(),
+        "--ik",
+        path.to_str().unwrap(),
+        "--max-iterations",
+        "15",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let converged: Vec<bool> = v["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["converged"].as_bool().unwrap())
+        .collect();
+    assert_eq!(converged, [true, false, true, true]);
+    assert_eq!(v["stats"]["failed"].as_u64(), Some(1));
+    assert_eq!(v["stats"]["first_failed_step"].as_u64(), Some(1));
+    let why = v["stats"]["first_failure"].as_str().unwrap();
+    assert!(why.contains("did not converge"), "{why}");
+    assert!(v["steps"][1]["error"].as_str().is_some());
+    let e = stderr(&o);
+    assert!(
+        e.contains("1 of 4 trajectory steps failed; the first at step 1: ") && !e.contains("NaN"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

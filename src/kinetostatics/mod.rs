@@ -44,6 +44,7 @@ use crate::analysis::{Analysis, AnalysisSettings, analyze_blocks};
 use crate::boundary::{BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives};
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError};
+use crate::input_range::{diverged_if_non_finite, parallel_robot_inputs};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonScratch, NewtonSettings};
 use crate::rod::Wrench;
@@ -168,7 +169,7 @@ impl Solver {
             }
             None => continuation::cold_fk(self, settings, q, &wrench),
         };
-        finish(result, start, extra)
+        finish(result, start, extra, &self.model, Some(q))
     }
 
     /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
@@ -206,11 +207,8 @@ impl Solver {
         let guess = match init {
             Some(s) => at_pose(s, pose),
             None if self.model.pairs == 1 => {
-                return finish(
-                    continuation::cold_ik(self, settings, pose, &wrench),
-                    start,
-                    extra,
-                );
+                let result = continuation::cold_ik(self, settings, pose, &wrench);
+                return finish(result, start, extra, &self.model, None);
             }
             None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
@@ -229,7 +227,7 @@ impl Solver {
             }
             (r, _) => r,
         };
-        finish(result, start, extra)
+        finish(result, start, extra, &self.model, None)
     }
 
     /// IK by one Newton run from `guess`, without the continuation fallback of
@@ -273,7 +271,7 @@ impl Solver {
             &wrench,
             guess,
         );
-        finish(result, start, extra)
+        finish(result, start, extra, &self.model, None)
     }
 
     /// The straight home guess for platform `pose` and actuation `q`.
@@ -364,13 +362,18 @@ fn at_pose(state: &RobotState, pose: &Pose) -> RobotState {
     }
 }
 
-/// The solution of a solve that began at `start`, under the external wrench `extra`.
+/// The solution of a solve that began at `start`, under the external wrench `extra`; a
+/// non-finite state as [`SolveError::Diverged`], naming the actuation `q` (FK) and the
+/// load against their scales in `model`.
 fn finish(
     result: Result<(RobotState, NewtonReport), SolveError>,
     start: Instant,
     extra: &Wrench,
+    model: &Model,
+    q: Option<&[f64]>,
 ) -> Result<Solution, Error> {
-    let (state, report) = result?;
+    let (state, report) =
+        result.map_err(|e| diverged_if_non_finite(e, || parallel_robot_inputs(model, q, extra)))?;
     Ok(Solution {
         state,
         report,

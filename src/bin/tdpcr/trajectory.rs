@@ -8,7 +8,7 @@ use nalgebra::{Rotation3, Vector3};
 use serde::Serialize;
 
 use tdpcr::SolveError;
-use tdpcr::error::{Error, StopReason, Violations};
+use tdpcr::error::{Error, Violations};
 use tdpcr::model::Pose;
 use tdpcr::trajectory::{Stats, StepResult, Targets, run_trajectory};
 
@@ -40,12 +40,12 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
     let (steps, stats) = run_trajectory(&mut solver, &targets, &wrench);
     let out = TrajectoryOutput { steps, stats };
     output::print(args.solve.format, &out, print_rows);
-    if out.stats.failed > 0 {
-        return Err(Error::Solve(SolveError::NotConverged {
-            iterations: 0,
-            residual_norm: f64::NAN,
-            tolerance: args.solve.newton.tolerance,
-            reason: StopReason::TrajectoryStepsFailed,
+    if let Some(first_step) = out.stats.first_failed_step {
+        return Err(Error::Solve(SolveError::TrajectoryStepsFailed {
+            failed: out.stats.failed,
+            steps: out.stats.steps,
+            first_step,
+            first_failure: out.stats.first_failure.clone().unwrap_or_default(),
         }));
     }
     Ok(())
@@ -71,6 +71,9 @@ fn print_rows(TrajectoryOutput { steps, stats }: &TrajectoryOutput) {
             s.rotvec[2],
             q.join(";")
         );
+    }
+    if let (Some(k), Some(why)) = (stats.first_failed_step, &stats.first_failure) {
+        eprintln!("first failed step: {k}: {why}");
     }
     eprintln!(
         "{} steps, {} failed; per step: median {:.0} µs, mean {:.0} µs, max {:.0} µs, median {} iterations",
