@@ -493,7 +493,7 @@ fn workspace_angle() -> impl Strategy<Value = String> {
             "NaN", "inf", "-inf", "0", "-0", "-1", "1e308", "", "abc", "1e-5"
         ])
         .prop_map(str::to_string),
-        (0.8f64..3.14).prop_map(|x| format!("{x}")),
+        (0.8f64..std::f64::consts::PI).prop_map(|x| format!("{x}")),
     ]
 }
 
