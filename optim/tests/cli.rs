@@ -1,58 +1,22 @@
 //! The `tdpcr-optim` binary end to end on the real workspace evaluation at a very coarse
 //! resolution: outputs, resume, exit codes and error messages.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use std::path::PathBuf;
+use std::process::Output;
+
+use common::{fresh_dir, optim, tiny_config};
 
 use tdpcr::Tdpcr;
 use tdpcr_optim::runlog::{LOG_FILE, read_log};
-
-fn optim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tdpcr-optim"))
-        .args(args)
-        .output()
-        .expect("binary runs")
-}
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("optim-cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-/// A search of 3 parameters at Δ = 30 mm, φ = 1.2 rad (a fraction of a second per
-/// evaluation), population 4.
-fn tiny_config(dir: &Path) -> PathBuf {
-    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../designs/lilge2022.ron");
-    let text = format!(
-        r#"OptimConfig(
-    base_design: "{}",
-    parameters: [
-        Bounds(parameter: Alpha, min: 0.4, max: 0.7),
-        Bounds(parameter: LegLength, min: 0.13, max: 0.16),
-        Bounds(parameter: Pretension, min: 0.0, max: 1.0),
-    ],
-    evaluation: Evaluation(step: 0.03, angle_step: 1.2, z_range: (-0.06, 0.06),
-                           orientations: [(0.0, 0.0, 0.0)], max_iterations: 20, tolerance: 1e-8),
-    objectives: [Weighted(objective: WorkspaceVolume, weight: 1.0),
-                 Weighted(objective: MeanRcondJp, weight: 1.0)],
-    budget: Budget(evaluations: Some(100)),
-    seed: 4,
-    population: Some(4),
-    figures: Some(FigureSweep(step: 0.03, angle_step: 1.2)),
-)"#,
-        base.display()
-    );
-    let path = dir.join("tiny.ron");
-    std::fs::write(&path, text).unwrap();
-    path
+    fresh_dir("optim-cli", name)
 }
 
 #[test]
