@@ -268,7 +268,8 @@ impl OutOfRange {
             value,
             unit,
             scale,
-            factor: value / scale,
+            // Past f64's range (1e308 against 0.1): the largest finite factor.
+            factor: (value / scale).min(f64::MAX),
             meaning: meaning.to_string(),
         }
     }
@@ -282,7 +283,11 @@ impl fmt::Display for OutOfRange {
             self.input,
             short_number(self.value),
             self.unit,
-            short_number(self.factor),
+            if self.factor == f64::MAX {
+                "more than 1e308".to_string()
+            } else {
+                short_number(self.factor)
+            },
             self.meaning,
             short_number(self.scale),
             self.unit

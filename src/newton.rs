@@ -67,6 +67,12 @@ pub trait NonlinearSystem {
 /// reduce it further, and it is as small as the arithmetic allows.
 pub const FLOOR_FACTOR: f64 = 10.0;
 
+/// The round-off floor relaxes the tolerance by at most this factor: a floor above
+/// `MAX_FLOOR_RELAXATION × tolerance` (a design whose Jacobian spans hundreds of orders of
+/// magnitude, e.g. a tendon stiffness of 1e-250 N found by the fuzz corpus) is no
+/// evidence of convergence, and such a solve fails as before.
+pub const MAX_FLOOR_RELAXATION: f64 = 1e4;
+
 /// The round-off floor of ‖F‖₂ at `x` (SI): ε ‖(Σ_j |J_ij| |x_j|)_i‖₂ with J = ∂F/∂x. Row i
 /// sums terms of about that size (for a rod, the internal force EA·(v − 1) cancels a
 /// tension or a load: its round-off is ε·EA), and x itself is known only to ε|x_j|, so F
@@ -372,6 +378,14 @@ pub fn solve<S: NonlinearSystem>(
     // Residual and Jacobian together: a start is rarely converged already (trajectory
     // steps never are), and a separate residual would cost a primal integration per solve.
     system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+    // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input far
+    // outside the design's range, e.g. a base translation of 1e308 m) cannot be improved
+    // on: say so.
+    if !(sc.r.norm().is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
+        return Err(SolveError::NonFinite {
+            stage: "the residual or Jacobian at the start",
+        });
+    }
     let mut evaluations = 1;
     let mut jacobians = 1;
     let mut iterations = 0;
@@ -562,7 +576,13 @@ pub fn solve<S: NonlinearSystem>(
                         sc.jac_trial[(i, j)] = sc.jac[(i, j)] / w;
                     }
                 }
-                if norm <= FLOOR_FACTOR * round_off_floor(&sc.jac_trial, x) {
+                let floor = round_off_floor(&sc.jac_trial, x);
+                // A floor far above the tolerance means an ill-scaled problem, not
+                // round-off: it does not relax the test (nor a NaN or infinite one).
+                if norm.is_finite()
+                    && floor <= MAX_FLOOR_RELAXATION * settings.tolerance
+                    && norm <= FLOOR_FACTOR * floor
+                {
                     return Ok(NewtonReport {
                         converged_at_floor: true,
                         ..report

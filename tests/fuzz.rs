@@ -213,8 +213,18 @@ fn perturbed_design() -> impl Strategy<Value = (String, bool, Vec<(String, usize
         })
 }
 
+/// `cases` cases from a fixed seed: CI runs the same corpus every time (the saved
+/// regressions in `fuzz.proptest-regressions` run first); change the seed to explore.
+fn config(cases: u32) -> ProptestConfig {
+    ProptestConfig {
+        cases,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(20261125),
+        ..ProptestConfig::default()
+    }
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 1200, ..ProptestConfig::default() })]
+    #![proptest_config(config(1200))]
 
     /// A design with perturbed fields loads, or fails naming a perturbed field; through
     /// the struct (`to_ron_string` of what deserializes) it gives the same verdict.
@@ -240,7 +250,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+    #![proptest_config(config(1000))]
 
     /// Raw text mutations (bytes deleted, duplicated or inserted): never a panic.
     #[test]
@@ -273,7 +283,7 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 150, ..ProptestConfig::default() })]
+    #![proptest_config(config(150))]
 
     /// A perturbed design that loads solves (FK at q = 0 and near it) to finite outputs
     /// or a typed error, in bounded time.
@@ -498,7 +508,7 @@ fn workspace_angle() -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 260, ..ProptestConfig::default() })]
+    #![proptest_config(config(260))]
 
     /// Every subcommand with fuzzed numeric flags: exit 0, 1 or 2, never a panic, no NaN
     /// on stdout, an error message on failure.
@@ -523,7 +533,7 @@ fn csv_rows(width: usize) -> impl Strategy<Value = String> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 100, ..ProptestConfig::default() })]
+    #![proptest_config(config(100))]
 
     /// `trajectory --ik/--fk` over fuzzed CSV rows: exit 0, 1 or 2, no panic, no NaN.
     #[test]
