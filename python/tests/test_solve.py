@@ -1,7 +1,9 @@
 """FK and IK: round trip, warm starts, per-call options, the analysis, the batch."""
 
+import threading
+import time
+
 import numpy as np
-import pytest
 
 import tdpcr
 from conftest import Q6
@@ -95,3 +97,20 @@ def test_fk_many_marks_failures(robot):
     assert not batch["converged"].any()
     assert np.isnan(batch["position"]).all()
     assert set(batch["errors"]) == {0, 1}
+
+
+def test_fk_many_releases_the_gil(robot):
+    """The main thread keeps running Python while another thread is in fk_many: the
+    longest pause between its loop turns stays well below the batch's duration (with the
+    GIL held it would be the whole batch)."""
+    Q = np.tile(Q6, (128, 1))
+    worker = threading.Thread(target=robot.fk_many, args=(Q,))
+    turns = []
+    start = time.perf_counter()
+    worker.start()
+    while worker.is_alive():
+        turns.append(time.perf_counter())
+    duration = time.perf_counter() - start
+    longest_pause = max(np.diff([start, *turns, start + duration]))
+    assert duration > 0.05
+    assert longest_pause < 0.5 * duration
