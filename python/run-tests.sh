@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The Python package's tests from a fresh clone: a virtual environment in target/py-venv
-# (or $TDPCR_PY_VENV; target/ is $CARGO_TARGET_DIR if set), maturin/numpy/pytest from PyPI, the package built and installed by
-# `pip install ./python`, the CLI built for the agreement tests, then pytest.
+# (or $TDPCR_PY_VENV; target/ is $CARGO_TARGET_DIR if set), maturin/numpy/pytest from
+# PyPI, the package built and installed by `pip install ./python`, the CLI built for the
+# agreement tests, then pytest.
 # Exits non-zero when anything fails. $PYTHON picks the interpreter (default python3).
 set -euo pipefail
 
