@@ -1,0 +1,82 @@
+//! float64 arrays in and out. Inputs may be any array-like (lists, int arrays,
+//! non-contiguous views): they are read as float64, their shape and finiteness checked,
+//! and a `ValueError` names the argument.
+
+use numpy::ndarray::{Array2, ArrayViewD};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// The elements of `obj` as a float64 array (converted by `numpy.asarray` if needed).
+fn readonly<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
+        return Ok(a);
+    }
+    let numpy = obj.py().import("numpy")?;
+    numpy
+        .call_method1("asarray", (obj, "float64"))
+        .and_then(|a| a.extract::<PyReadonlyArrayDyn<'py, f64>>())
+        .map_err(|e| PyValueError::new_err(format!("{name}: not an array of numbers ({e})")))
+}
+
+/// Checks every element is finite.
+fn check_finite(a: &ArrayViewD<'_, f64>, name: &str) -> PyResult<()> {
+    match a.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(PyValueError::new_err(format!(
+            "{name}: element {i} is {}: expected finite numbers",
+            a.iter().nth(i).copied().unwrap_or(f64::NAN)
+        ))),
+    }
+}
+
+/// A vector argument of `len` elements (any length if `None`), finite.
+pub fn vector(obj: &Bound<'_, PyAny>, name: &str, len: Option<usize>) -> PyResult<Vec<f64>> {
+    let a = readonly(obj, name)?;
+    let a = a.as_array();
+    let ok = a.ndim() == 1 && len.is_none_or(|n| a.len() == n);
+    if !ok {
+        let expected = len.map_or("a 1-d array".to_string(), |n| format!("shape ({n},)"));
+        return Err(PyValueError::new_err(format!(
+            "{name}: shape {:?}: expected {expected}",
+            a.shape()
+        )));
+    }
+    check_finite(&a, name)?;
+    Ok(a.iter().copied().collect())
+}
+
+/// A matrix argument with `cols` columns (any number of rows), finite; row-major rows.
+pub fn rows(obj: &Bound<'_, PyAny>, name: &str, cols: usize) -> PyResult<Vec<Vec<f64>>> {
+    let a = readonly(obj, name)?;
+    let a = a.as_array();
+    if a.ndim() != 2 || a.shape()[1] != cols {
+        return Err(PyValueError::new_err(format!(
+            "{name}: shape {:?}: expected (m, {cols})",
+            a.shape()
+        )));
+    }
+    check_finite(&a, name)?;
+    Ok(a.outer_iter()
+        .map(|r| r.iter().copied().collect())
+        .collect())
+}
+
+/// A vector as a 1-d array.
+pub fn array1<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_slice(py, v)
+}
+
+/// `rows × cols` elements from `at(i, j)` as a 2-d array.
+pub fn array2<'py>(
+    py: Python<'py>,
+    shape: (usize, usize),
+    at: impl Fn(usize, usize) -> f64,
+) -> Bound<'py, PyArray2<f64>> {
+    Array2::from_shape_fn(shape, |(i, j)| at(i, j)).into_pyarray(py)
+}
+
+/// A nalgebra matrix as a 2-d array.
+pub fn matrix<'py>(py: Python<'py>, m: &nalgebra::DMatrix<f64>) -> Bound<'py, PyArray2<f64>> {
+    array2(py, m.shape(), |i, j| m[(i, j)])
+}

@@ -1,0 +1,178 @@
+"""Type stubs of the native module ``tdpcr._tdpcr`` (re-exported by ``tdpcr``).
+
+Units: SI (m, rad, N, N·m). Arrays: float64 numpy arrays. Array arguments accept any
+array-like of numbers (lists, int arrays, non-contiguous views); a wrong shape or a
+NaN/infinite element raises ``ValueError`` naming the argument.
+"""
+
+from os import PathLike
+from typing import Any, Literal, Optional, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+ArrayLike = npt.ArrayLike
+F64 = npt.NDArray[np.float64]
+Jacobian = Literal["exact", "fd", "fd-central"]
+
+class DesignError(ValueError):
+    """A design that cannot be read, parsed or accepted; the message lists every bad field."""
+
+class ConvergenceError(RuntimeError):
+    """A solve that failed."""
+
+    reason: str
+    """Why it stopped, snake_case (the CLI's ``stop_reason``, or ``"non_finite"``)."""
+    residual_norm: Optional[float]
+    """Norm of the SI residual at the best point found (None if unknown)."""
+    iterations: Optional[int]
+    """Newton iterations done (None if unknown)."""
+
+class AnalysisError(RuntimeError):
+    """An analysis that cannot be carried out (an exactly singular matrix)."""
+
+class Design:
+    """A parallel-robot design (RON, as in ``designs/``), validated when loaded."""
+
+    @staticmethod
+    def load(path: Union[str, "PathLike[str]"]) -> "Design":
+        """Loads and validates a RON design file. Raises DesignError."""
+    @staticmethod
+    def from_ron(text: str, source: str = "<string>") -> "Design":
+        """Parses and validates RON text (``source`` names it in errors). Raises DesignError."""
+    @property
+    def n_actuators(self) -> int:
+        """Length of q: 6 (6-DoF design) or 9 (9-DoF design)."""
+
+class State:
+    """A configuration (pose, q, the legs' base unknowns); pass it as ``init``."""
+
+    @property
+    def position(self) -> F64:
+        """Platform position [m], world frame, shape (3,)."""
+    @property
+    def rotvec(self) -> F64:
+        """Platform rotation vector (axis × angle) [rad], shape (3,)."""
+    @property
+    def q(self) -> F64:
+        """Actuation [m], shape (n,)."""
+    @property
+    def y_u(self) -> F64:
+        """The legs' unknowns at their bases, shape (3 (6 + n_t),)."""
+    def to_json(self) -> str:
+        """The state as JSON (what ``tdpcr fk --init`` reads)."""
+    @staticmethod
+    def from_json(text: str) -> "State":
+        """A state from JSON (the CLI's ``state`` object)."""
+
+class Solution:
+    """A converged solve."""
+
+    @property
+    def position(self) -> F64:
+        """Platform position [m], world frame, shape (3,)."""
+    @property
+    def rotation(self) -> F64:
+        """Platform rotation, body to world, shape (3, 3)."""
+    @property
+    def rotvec(self) -> F64:
+        """Platform rotation vector (axis × angle) [rad], shape (3,)."""
+    @property
+    def q(self) -> F64:
+        """Actuation [m], shape (n,): per leg [bend_x, (bend_y), translation]."""
+    @property
+    def tensions(self) -> F64:
+        """Tendon tensions [N], shape (3, n_t): one row per leg."""
+    @property
+    def iterations(self) -> int:
+        """Newton iterations."""
+    @property
+    def residual_evaluations(self) -> int:
+        """Residual evaluations."""
+    @property
+    def jacobian_evaluations(self) -> int:
+        """Exact Jacobians evaluated."""
+    @property
+    def residual_norm(self) -> float:
+        """Norm of the final SI residual."""
+    @property
+    def solve_time_us(self) -> float:
+        """Wall time of the solve [µs]."""
+    @property
+    def state(self) -> State:
+        """The configuration, usable as ``init`` of the next solve."""
+
+class Robot:
+    """FK and IK of one design. Holds its buffers: one Robot per Python thread."""
+
+    def __init__(self, design: Design) -> None: ...
+    @property
+    def n_actuators(self) -> int:
+        """Length of q."""
+    def fk(
+        self,
+        q: ArrayLike,
+        wrench: Optional[ArrayLike] = None,
+        init: Optional[Union[State, Solution]] = None,
+        *,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+    ) -> Solution:
+        """Forward kinetostatics at actuation ``q`` (n,) [m].
+
+        ``wrench`` (6,): extra [fx, fy, fz, mx, my, mz] [N, N·m] on the platform centre,
+        world frame, added to its weight. ``init``: warm start. ``tolerance``: on the
+        residual norm (default 1e-10). Raises ConvergenceError, ValueError.
+        """
+    def ik(
+        self,
+        position: ArrayLike,
+        rotvec: Optional[ArrayLike] = None,
+        *,
+        wrench: Optional[ArrayLike] = None,
+        init: Optional[Union[State, Solution]] = None,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+        limits: Literal["free", "strict"] = "free",
+        reference: Optional[ArrayLike] = None,
+    ) -> Solution:
+        """Inverse kinetostatics: q that holds the platform at ``position`` (3,) [m] and
+        ``rotvec`` (3,) [rad]. For the 9-DoF design, ``limits="strict"`` keeps q within
+        the design's limits (``reference``: a q to stay close to). Raises
+        ConvergenceError, ValueError.
+        """
+    def analyze(
+        self,
+        solution: Solution,
+        *,
+        type_i_threshold: Optional[float] = None,
+        type_ii_threshold: Optional[float] = None,
+        leg_threshold: Optional[float] = None,
+    ) -> dict[str, Any]:
+        """Kinetostatic analysis of ``solution`` under the wrench it was solved under.
+
+        Keys: ``j_fk`` (6, n) [m/m, rad/m], ``j_ik`` (n, 6), ``compliance`` (6, 6)
+        [m/N, rad/(N·m)], ``lambda_fk``, ``lambda_ik``, ``lambda_c`` (arrays);
+        ``rcond`` ({"raw": {...}, "scaled": {...}}), ``singularity``, ``ellipsoids``,
+        ``stability``, ``thresholds`` (dicts, as in ``tdpcr analyze --format json``);
+        ``min_tension`` [N]. Raises AnalysisError.
+        """
+    def fk_many(
+        self,
+        q: ArrayLike,
+        wrench: Optional[ArrayLike] = None,
+        *,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+    ) -> dict[str, Any]:
+        """FK of every row of ``q`` (m, n), cold-started, in parallel, GIL released.
+
+        Keys: ``position`` (m, 3), ``rotation`` (m, 3, 3), ``rotvec`` (m, 3), ``q``
+        (m, n), ``tensions`` (m, 3, n_t), ``iterations`` (m,) uint64, ``residual_norm``
+        (m,), ``converged`` (m,) bool (failed rows NaN), ``errors`` {row: message}.
+        """

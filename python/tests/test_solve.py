@@ -1,0 +1,116 @@
+"""FK and IK: round trip, warm starts, per-call options, the analysis, the batch."""
+
+import threading
+import time
+
+import numpy as np
+
+import tdpcr
+from conftest import Q6
+
+
+def test_fk_ik_round_trip(robot):
+    fk = robot.fk(Q6)
+    ik = robot.ik(fk.position, fk.rotvec)
+    np.testing.assert_allclose(ik.q, Q6, atol=1e-9)
+    np.testing.assert_allclose(ik.position, fk.position, atol=1e-12)
+    assert fk.residual_norm <= 1e-10 and ik.residual_norm <= 1e-10
+
+
+def test_solution_fields(robot):
+    s = robot.fk(Q6)
+    assert s.position.shape == (3,) and s.position.dtype == np.float64
+    assert s.rotvec.shape == (3,)
+    assert s.rotation.shape == (3, 3)
+    np.testing.assert_allclose(s.rotation @ s.rotation.T, np.eye(3), atol=1e-12)
+    np.testing.assert_array_equal(s.q, Q6)
+    assert s.tensions.shape == (3, 2) and (s.tensions >= 0).all()
+    assert s.iterations >= 1 and s.residual_evaluations >= s.iterations
+    assert s.state.q.shape == (6,) and s.state.y_u.shape == (24,)
+
+
+def test_warm_start_from_state(robot):
+    cold = robot.fk(Q6)
+    q = np.array(Q6) + 1e-4
+    warm = robot.fk(q, init=cold.state)
+    again_cold = robot.fk(q)
+    assert warm.iterations < again_cold.iterations
+    np.testing.assert_allclose(warm.position, again_cold.position, atol=1e-10)
+    # A Solution works as init too, and a state survives JSON.
+    robot.fk(q, init=cold)
+    state = tdpcr.State.from_json(cold.state.to_json())
+    np.testing.assert_array_equal(state.y_u, cold.state.y_u)
+
+
+def test_per_call_options_do_not_stick(robot):
+    loose = robot.fk(Q6, tolerance=1e-4)
+    assert loose.residual_norm <= 1e-4
+    fd = robot.fk(Q6, jacobian="fd-central")
+    np.testing.assert_allclose(fd.position, robot.fk(Q6).position, atol=1e-9)
+    assert robot.fk(Q6).residual_norm <= 1e-10
+
+
+def test_wrench_moves_the_platform_down(robot):
+    free = robot.fk(Q6)
+    loaded = robot.fk(Q6, wrench=[0, 0, -0.5, 0, 0, 0])
+    assert loaded.position[2] < free.position[2]
+
+
+def test_analyze(robot):
+    a = robot.analyze(robot.fk(Q6))
+    assert a["j_fk"].shape == (6, 6) and a["j_ik"].shape == (6, 6)
+    np.testing.assert_allclose(a["j_fk"] @ a["j_ik"], np.eye(6), atol=1e-6)
+    assert a["compliance"].shape == (6, 6) and a["compliance"][2, 2] > 0
+    assert set(a["rcond"]) == {"raw", "scaled"} and a["rcond"]["raw"]["b_xu"] > 0
+    assert set(a["singularity"]) >= {"type_i", "type_ii", "leg"}
+    assert a["stability"]["stable"] is True
+    assert a["min_tension"] >= 0
+
+
+def test_redundant_ik_within_limits(redundant_robot):
+    fk = redundant_robot.fk(np.zeros(9))
+    position = fk.position + [0.002, 0.0, 0.0]
+    free = redundant_robot.ik(position)
+    strict = redundant_robot.ik(position, limits="strict", reference=np.zeros(9))
+    for s in (free, strict):
+        np.testing.assert_allclose(s.position, position, atol=1e-9)
+    assert strict.q.shape == (9,)
+
+
+def test_fk_many_equals_the_loop(robot):
+    rng = np.random.default_rng(1)
+    Q = np.array(Q6) + rng.uniform(-1e-3, 1e-3, size=(5, 6))
+    batch = robot.fk_many(Q)
+    assert batch["converged"].dtype == np.bool_ and batch["converged"].all()
+    assert batch["rotation"].shape == (5, 3, 3) and batch["tensions"].shape == (5, 3, 2)
+    for k, q in enumerate(Q):
+        s = robot.fk(q)
+        np.testing.assert_array_equal(batch["position"][k], s.position)
+        np.testing.assert_array_equal(batch["q"][k], s.q)
+        np.testing.assert_array_equal(batch["tensions"][k], s.tensions)
+        assert batch["iterations"][k] == s.iterations
+
+
+def test_fk_many_marks_failures(robot):
+    Q = np.array([Q6, Q6])
+    batch = robot.fk_many(Q, max_iterations=1)
+    assert not batch["converged"].any()
+    assert np.isnan(batch["position"]).all()
+    assert set(batch["errors"]) == {0, 1}
+
+
+def test_fk_many_releases_the_gil(robot):
+    """The main thread keeps running Python while another thread is in fk_many: the
+    longest pause between its loop turns stays well below the batch's duration (with the
+    GIL held it would be the whole batch)."""
+    Q = np.tile(Q6, (128, 1))
+    worker = threading.Thread(target=robot.fk_many, args=(Q,))
+    turns = []
+    start = time.perf_counter()
+    worker.start()
+    while worker.is_alive():
+        turns.append(time.perf_counter())
+    duration = time.perf_counter() - start
+    longest_pause = max(np.diff([start, *turns, start + duration]))
+    assert duration > 0.05
+    assert longest_pause < 0.5 * duration
