@@ -24,7 +24,8 @@ class ConvergenceError(RuntimeError):
     """A solve that failed."""
 
     reason: str
-    """Why it stopped, snake_case (the CLI's ``stop_reason``, or ``"non_finite"``)."""
+    """Why it stopped, snake_case (the CLI's ``stop_reason``; ``"diverged"`` when the solve went non-finite,
+    the message then names the inputs beyond the design's range)."""
     residual_norm: Optional[float]
     """Norm of the SI residual at the best point found (None if unknown)."""
     iterations: Optional[int]

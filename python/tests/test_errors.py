@@ -35,6 +35,13 @@ def test_convergence_error_carries_reason_and_residual(robot):
     assert isinstance(e.value, RuntimeError)
 
 
+def test_a_diverged_solve_names_the_input_beyond_its_range(robot):
+    with pytest.raises(tdpcr.ConvergenceError) as e:
+        robot.fk([1.0] * 6)
+    assert e.value.reason == "diverged"
+    assert "q[0] = 1 m is 100 times" in str(e.value)
+
+
 @pytest.mark.parametrize(
     "call, name",
     [
