@@ -381,7 +381,8 @@ pub fn solve<S: NonlinearSystem>(
     // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input far
     // outside the design's range, e.g. a base translation of 1e308 m) cannot be improved
     // on: say so.
-    if !(sc.r.norm().is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
+    let mut norm = sc.r.norm();
+    if !(norm.is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
         return Err(SolveError::NonFinite {
             stage: "the residual or Jacobian at the start",
         });
@@ -389,7 +390,6 @@ pub fn solve<S: NonlinearSystem>(
     let mut evaluations = 1;
     let mut jacobians = 1;
     let mut iterations = 0;
-    let mut norm = sc.r.norm();
     sc.history.push(norm);
     let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut radius = 0.0;
