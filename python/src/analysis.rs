@@ -11,7 +11,7 @@ use tdpcr::{Analysis, AnalysisSettings};
 use crate::arrays::matrix;
 
 /// A serializable value as the Python object of its JSON (dicts, lists, floats, bools).
-fn json_value<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
+pub fn json_value<'py>(py: Python<'py>, value: &impl Serialize) -> PyResult<Bound<'py, PyAny>> {
     let text = serde_json::to_string(value)
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     py.import("json")?.call_method1("loads", (text,))

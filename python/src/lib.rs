@@ -7,15 +7,21 @@
 //! - `arrays.rs`: float64 arrays in (shape and finiteness checked, named) and out;
 //! - `design.rs`: `Design` (a validated design file);
 //! - `solution.rs`: `State` (a configuration, a warm start) and `Solution`;
-//! - `robot.rs`: `Robot` (fk, ik, analyze, fk_many);
+//! - `robot.rs`: `Robot` (fk, ik, analyze, the batches, workspace);
+//! - `batch.rs`: batches as stacked arrays (parallel `*_many`, warm `trajectory_*`);
+//! - `tdcr.rs`: `Tdcr` (one continuum robot alone, tension or displacement control);
+//! - `workspace.rs`: the workspace sweep as columns of arrays, with a progress callback;
 //! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts.
 
 mod analysis;
 mod arrays;
+mod batch;
 mod design;
 mod errors;
 mod robot;
 mod solution;
+mod tdcr;
+mod workspace;
 
 use pyo3::prelude::*;
 
@@ -28,6 +34,7 @@ fn _tdpcr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::Robot>()?;
     m.add_class::<solution::Solution>()?;
     m.add_class::<solution::State>()?;
+    m.add_class::<tdcr::Tdcr>()?;
     m.add("DesignError", py.get_type::<errors::DesignError>())?;
     m.add(
         "ConvergenceError",

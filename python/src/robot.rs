@@ -2,22 +2,23 @@
 //! parallel batch `fk_many`. Per-call options (tolerance, iteration limit, Jacobian,
 //! redundancy) apply to that call only.
 
-use std::collections::HashMap;
+use std::sync::Arc;
 
-use nalgebra::{Rotation3, Vector3};
-use numpy::IntoPyArray;
-use numpy::ndarray::{Array1, Array2, Array3};
+use nalgebra::Vector3;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rayon::prelude::*;
 
 use tdpcr::boundary::FiniteDifference;
 use tdpcr::kinetostatics::{JacobianMethod, Objective, Redundancy};
-use tdpcr::{AnalysisSettings, Error, NewtonSettings, Pose, RobotState, Solver, Wrench};
+use tdpcr::model::Model;
+use tdpcr::trajectory::{StepResult, Targets, run_trajectory};
+use tdpcr::workspace::{CollisionPolicy, WorkspaceSettings};
+use tdpcr::{AnalysisSettings, NewtonSettings, Pose, RobotState, Solver, Wrench};
 
 use crate::analysis::analysis_dict;
 use crate::arrays::vector;
+use crate::batch::{parallel, pose_of_row, stack_solutions, stack_steps, threads_arg};
 use crate::design::Design;
 use crate::errors::to_py_err;
 use crate::solution::{Solution, State};
@@ -27,6 +28,10 @@ use crate::solution::{Solution, State};
 #[pyclass(module = "tdpcr")]
 pub struct Robot {
     solver: Solver,
+    /// The design (the workspace sweep builds its own solvers from it).
+    design: tdpcr::Tdpcr,
+    /// The model, shared with every `Solution` (for its `shape`).
+    model: Arc<Model>,
 }
 
 /// The per-call options of a solve.
@@ -82,6 +87,7 @@ impl Robot {
     fn solution(&self, solution: tdpcr::Solution) -> Solution {
         Solution {
             tensions: solution.tensions(self.solver.model()),
+            model: Arc::clone(&self.model),
             solution,
         }
     }
@@ -122,7 +128,12 @@ impl Robot {
     #[new]
     fn new(py: Python<'_>, design: PyRef<'_, Design>) -> PyResult<Self> {
         let solver = Solver::new(&design.design).map_err(|e| to_py_err(py, e))?;
-        Ok(Self { solver })
+        let model = Arc::new(solver.model().clone());
+        Ok(Self {
+            solver,
+            design: design.design.clone(),
+            model,
+        })
     }
 
     /// Length of q.
@@ -173,36 +184,15 @@ impl Robot {
         limits: &str,
         reference: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Solution> {
-        let p = vector(position, "position", Some(3))?;
-        let r = match rotvec {
-            Some(r) => vector(r, "rotvec", Some(3))?,
-            None => vec![0.0; 3],
-        };
-        let pose = Pose {
-            position: Vector3::new(p[0], p[1], p[2]),
-            rotation: *Rotation3::new(Vector3::new(r[0], r[1], r[2])).matrix(),
-        };
+        let mut row = vector(position, "position", Some(3))?;
+        match rotvec {
+            Some(r) => row.extend(vector(r, "rotvec", Some(3))?),
+            None => row.extend([0.0; 3]),
+        }
+        let pose = pose_of_row(&row);
         let wrench = wrench_arg(wrench)?;
         let init = init_arg(init)?;
-        let redundancy = match (limits, reference) {
-            ("free", None) => Redundancy::LeastNorm,
-            ("free", Some(_)) => {
-                return Err(PyValueError::new_err(
-                    "reference: given: expected only with limits=\"strict\"",
-                ));
-            }
-            ("strict", None) => Redundancy::WithinLimits(Objective::LeastChange),
-            ("strict", Some(q)) => Redundancy::WithinLimits(Objective::ClosestTo(vector(
-                q,
-                "reference",
-                Some(self.n_actuators()),
-            )?)),
-            (other, _) => {
-                return Err(PyValueError::new_err(format!(
-                    "limits: {other:?}: expected \"free\" or \"strict\""
-                )));
-            }
-        };
+        let redundancy = self.redundancy(limits, reference)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
         let result = self.with_call(o.jacobian, Some(redundancy), |s| {
             s.solve_ik_with(&pose, &wrench, init.as_ref(), &o.settings)
@@ -238,11 +228,14 @@ impl Robot {
         analysis_dict(py, &a, &settings)
     }
 
-    /// FK of every row of `q` (m, n) [m], independently (cold starts) and in parallel,
-    /// without the GIL. A dict of stacked arrays: position (m, 3), rotation (m, 3, 3),
-    /// rotvec (m, 3), q (m, n), tensions (m, 3, n_t), iterations (m,), residual_norm
-    /// (m,) and converged (m,) bool; rows that failed are NaN (iterations 0).
-    #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
+    /// FK of every row of `q` (m, n) [m], independently (cold starts) and in parallel
+    /// on `threads` workers (all cores if None), without the GIL. A dict of stacked
+    /// arrays: position (m, 3) [m], rotation (m, 3, 3), rotvec (m, 3) [rad], q (m, n)
+    /// [m], tensions (m, 3, n_t) [N], iterations (m,), residual_norm (m,),
+    /// solve_time_us (m,) [µs], converged (m,) bool and errors {row: message}; rows
+    /// that failed are 0 (read them through `converged`).
+    #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", threads=None))]
+    #[allow(clippy::too_many_arguments)]
     fn fk_many<'py>(
         &mut self,
         py: Python<'py>,
@@ -251,81 +244,207 @@ impl Robot {
         tolerance: Option<f64>,
         max_iterations: Option<usize>,
         jacobian: &str,
+        threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let n = self.n_actuators();
-        let rows = crate::arrays::rows(q, "q", n)?;
+        let rows = crate::arrays::rows(q, "q", self.n_actuators())?;
         let wrench = wrench_arg(wrench)?;
+        let threads = threads_arg(threads)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
         let mut template = self.solver.clone();
         template.jacobian = o.jacobian;
-        let results: Vec<Result<tdpcr::Solution, Error>> = py.detach(|| {
-            rows.par_iter()
-                .map_init(
-                    || template.clone(),
-                    |s, q| s.solve_fk_with(q, &wrench, None, &o.settings),
-                )
-                .collect()
-        });
-        self.stack(py, &results)
+        let results = py
+            .detach(|| {
+                parallel(&template, &rows, threads, |s, q| {
+                    s.solve_fk_with(q, &wrench, None, &o.settings)
+                })
+            })
+            .map_err(PyValueError::new_err)?;
+        stack_solutions(py, self.solver.model(), &results)
+    }
+
+    /// IK of every row of `poses` (m, 6) [x, y, z [m], rx, ry, rz [rad]], independently
+    /// (cold starts) and in parallel, without the GIL; options as `ik`. The dict of
+    /// `fk_many`.
+    #[pyo3(signature = (poses, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", limits="free", reference=None, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn ik_many<'py>(
+        &mut self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        wrench: Option<&Bound<'py, PyAny>>,
+        tolerance: Option<f64>,
+        max_iterations: Option<usize>,
+        jacobian: &str,
+        limits: &str,
+        reference: Option<&Bound<'py, PyAny>>,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let poses: Vec<Pose> = crate::arrays::rows(poses, "poses", 6)?
+            .iter()
+            .map(|r| pose_of_row(r))
+            .collect();
+        let wrench = wrench_arg(wrench)?;
+        let threads = threads_arg(threads)?;
+        let redundancy = self.redundancy(limits, reference)?;
+        let o = self.options(tolerance, max_iterations, jacobian)?;
+        let mut template = self.solver.clone();
+        template.jacobian = o.jacobian;
+        template.redundancy = redundancy;
+        let results = py
+            .detach(|| {
+                parallel(&template, &poses, threads, |s, p| {
+                    s.solve_ik_with(p, &wrench, None, &o.settings)
+                })
+            })
+            .map_err(PyValueError::new_err)?;
+        stack_solutions(py, self.solver.model(), &results)
+    }
+
+    /// FK along the rows of `q` (m, n) [m] in order, each step warm-started from the
+    /// previous step's solution (the first, and any step after a failed one, cold), on
+    /// this robot's solver, without the GIL. Equals the loop
+    /// `s = robot.fk(q[k], wrench, init=s.state if s converged else None)`. A dict:
+    /// position (m, 3) [m], rotation (m, 3, 3), rotvec (m, 3) [rad], q (m, n) [m],
+    /// iterations (m,), residual_norm (m,), solve_time_us (m,) [µs], converged (m,)
+    /// bool, errors {row: message}; failed rows are 0 (read them through `converged`).
+    #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
+    fn trajectory_fk<'py>(
+        &mut self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        wrench: Option<&Bound<'py, PyAny>>,
+        tolerance: Option<f64>,
+        max_iterations: Option<usize>,
+        jacobian: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let targets = Targets::Actuations(crate::arrays::rows(q, "q", self.n_actuators())?);
+        let wrench = wrench_arg(wrench)?;
+        let o = self.options(tolerance, max_iterations, jacobian)?;
+        let steps = self.trajectory(py, &o, None, &targets, &wrench);
+        stack_steps(py, self.n_actuators(), &steps)
+    }
+
+    /// IK along the rows of `poses` (m, 6) [x, y, z [m], rx, ry, rz [rad]] in order,
+    /// warm-started as `trajectory_fk` (the loop of `ik` calls with `init` the previous
+    /// state); options as `ik`; the dict of `trajectory_fk`.
+    #[pyo3(signature = (poses, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", limits="free", reference=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn trajectory_ik<'py>(
+        &mut self,
+        py: Python<'py>,
+        poses: &Bound<'py, PyAny>,
+        wrench: Option<&Bound<'py, PyAny>>,
+        tolerance: Option<f64>,
+        max_iterations: Option<usize>,
+        jacobian: &str,
+        limits: &str,
+        reference: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let rows = crate::arrays::rows(poses, "poses", 6)?;
+        let targets = Targets::Poses(rows.iter().map(|r| pose_of_row(r)).collect());
+        let wrench = wrench_arg(wrench)?;
+        let redundancy = self.redundancy(limits, reference)?;
+        let o = self.options(tolerance, max_iterations, jacobian)?;
+        let steps = self.trajectory(py, &o, Some(redundancy), &targets, &wrench);
+        stack_steps(py, self.n_actuators(), &steps)
+    }
+
+    /// The workspace at the fixed orientation `rotvec` [rad]: the library's sweep (rays
+    /// of IK steps of `step` [m] at angles `angle_step` [rad] in the planes z = k·step
+    /// within `z_range` [m]; `collisions` "stop" | "continue"), in parallel without the
+    /// GIL. `progress(rays_done, rays_total)` is called with the GIL at most about four
+    /// times a second and once at the end (an exception it raises is raised after the
+    /// sweep). A dict of columns, one row per cell: cell (m, 3) int, position (m, 3)
+    /// [m], rotvec (m, 3) [rad], q (m, n) [m], tensions (m, 3 n_t) [N], reachable and
+    /// collision (m,) bool, rcond and rcond_scaled ({name: (m,)}), singularity
+    /// ({type_i, type_ii, leg: (m,) bool}), min_tension (m,) [N], stable (m,) bool,
+    /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
+    /// (dicts, as the CLI's workspace JSON).
+    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn workspace<'py>(
+        &self,
+        py: Python<'py>,
+        step: Option<f64>,
+        angle_step: Option<f64>,
+        z_range: Option<&Bound<'py, PyAny>>,
+        rotvec: Option<&Bound<'py, PyAny>>,
+        collisions: &str,
+        tolerance: Option<f64>,
+        max_iterations: Option<usize>,
+        progress: Option<Py<PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let d = WorkspaceSettings::default();
+        let three = |v: Option<&Bound<'py, PyAny>>, name, default: [f64; 3]| match v {
+            Some(v) => vector(v, name, Some(3)).map(|v| [v[0], v[1], v[2]]),
+            None => Ok(default),
+        };
+        let z_range = match z_range {
+            Some(z) => vector(z, "z_range", Some(2)).map(|z| [z[0], z[1]])?,
+            None => d.z_range,
+        };
+        let collisions = match collisions {
+            "stop" => CollisionPolicy::Stop,
+            "continue" => CollisionPolicy::Continue,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "collisions: {other:?}: expected \"stop\" or \"continue\""
+                )));
+            }
+        };
+        let settings = WorkspaceSettings {
+            rotvec: three(rotvec, "rotvec", d.rotvec)?,
+            step: step.unwrap_or(d.step),
+            angle_step: angle_step.unwrap_or(d.angle_step),
+            z_range,
+            collisions,
+            tolerance: tolerance.unwrap_or(d.tolerance),
+            max_iterations: max_iterations.unwrap_or(d.max_iterations),
+            ..d
+        };
+        crate::workspace::sweep(py, &self.design, &settings, progress)
     }
 }
 
 impl Robot {
-    /// The batch results as stacked arrays (NaN rows where a solve failed).
-    fn stack<'py>(
+    /// The library's warm-started trajectory with the call's options, without the GIL.
+    fn trajectory(
+        &mut self,
+        py: Python<'_>,
+        o: &CallOptions,
+        redundancy: Option<Redundancy>,
+        targets: &Targets,
+        wrench: &Wrench,
+    ) -> Vec<StepResult> {
+        let saved = self.solver.settings;
+        self.solver.settings = o.settings;
+        let (steps, _) = self.with_call(o.jacobian, redundancy, |s| {
+            py.detach(|| run_trajectory(s, targets, wrench))
+        });
+        self.solver.settings = saved;
+        steps
+    }
+
+    /// The IK redundancy resolution of `limits` ("free" | "strict") and `reference`.
+    fn redundancy(
         &self,
-        py: Python<'py>,
-        results: &[Result<tdpcr::Solution, Error>],
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let model = self.solver.model();
-        let (m, n, nt) = (results.len(), model.n_actuators(), model.n_tendons());
-        let mut position = Array2::from_elem((m, 3), f64::NAN);
-        let mut rotation = Array3::from_elem((m, 3, 3), f64::NAN);
-        let mut rotvec = Array2::from_elem((m, 3), f64::NAN);
-        let mut q = Array2::from_elem((m, n), f64::NAN);
-        let mut tensions = Array3::from_elem((m, 3, nt), f64::NAN);
-        let mut iterations = Array1::<u64>::zeros(m);
-        let mut residual_norm = Array1::from_elem(m, f64::NAN);
-        let mut converged = Array1::from_elem(m, false);
-        let mut errors: HashMap<usize, String> = HashMap::new();
-        for (k, r) in results.iter().enumerate() {
-            let s = match r {
-                Ok(s) => s,
-                Err(e) => {
-                    errors.insert(k, e.to_string());
-                    continue;
-                }
-            };
-            let r = s.state.pose().rotation;
-            for i in 0..3 {
-                position[(k, i)] = s.state.position[i];
-                rotvec[(k, i)] = s.state.rotvec[i];
-                for j in 0..3 {
-                    rotation[(k, i, j)] = r[(i, j)];
-                }
-            }
-            for (j, &x) in s.state.q.iter().enumerate() {
-                q[(k, j)] = x;
-            }
-            for (i, leg) in s.tensions(model).iter().enumerate() {
-                for (j, &t) in leg.iter().enumerate() {
-                    tensions[(k, i, j)] = t;
-                }
-            }
-            iterations[k] = s.report.iterations as u64;
-            residual_norm[k] = s.report.residual_norm;
-            converged[k] = true;
+        limits: &str,
+        reference: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Redundancy> {
+        match (limits, reference) {
+            ("free", None) => Ok(Redundancy::LeastNorm),
+            ("free", Some(_)) => Err(PyValueError::new_err(
+                "reference: given: expected only with limits=\"strict\"",
+            )),
+            ("strict", None) => Ok(Redundancy::WithinLimits(Objective::LeastChange)),
+            ("strict", Some(q)) => Ok(Redundancy::WithinLimits(Objective::ClosestTo(vector(
+                q,
+                "reference",
+                Some(self.n_actuators()),
+            )?))),
+            (other, _) => Err(PyValueError::new_err(format!(
+                "limits: {other:?}: expected \"free\" or \"strict\""
+            ))),
         }
-        let out = PyDict::new(py);
-        out.set_item("position", position.into_pyarray(py))?;
-        out.set_item("rotation", rotation.into_pyarray(py))?;
-        out.set_item("rotvec", rotvec.into_pyarray(py))?;
-        out.set_item("q", q.into_pyarray(py))?;
-        out.set_item("tensions", tensions.into_pyarray(py))?;
-        out.set_item("iterations", iterations.into_pyarray(py))?;
-        out.set_item("residual_norm", residual_norm.into_pyarray(py))?;
-        out.set_item("converged", converged.into_pyarray(py))?;
-        out.set_item("errors", errors)?;
-        Ok(out)
     }
 }

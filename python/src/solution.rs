@@ -1,10 +1,17 @@
 //! `State` (a configuration of the robot, usable as a warm start) and `Solution` (a
 //! converged solve), with the names of the CLI's JSON.
 
-use numpy::{PyArray1, PyArray2};
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use numpy::ndarray::Array3;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
+use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 
 use tdpcr::RobotState;
+use tdpcr::model::Model;
+use tdpcr::workspace::collision::CollisionChecker;
 
 use crate::arrays::{array1, array2};
 
@@ -74,6 +81,8 @@ pub struct Solution {
     pub(crate) solution: tdpcr::Solution,
     /// Tendon tensions per leg [N].
     pub(crate) tensions: Vec<Vec<f64>>,
+    /// The robot's model (for `shape`).
+    pub(crate) model: Arc<Model>,
 }
 
 #[pymethods]
@@ -139,6 +148,28 @@ impl Solution {
     #[getter]
     fn solve_time_us(&self) -> f64 {
         self.solution.solve_time_us
+    }
+
+    /// The legs' backbones for plotting [m], world frame, shape (3, n_disks + 1, 3): per
+    /// leg the base point then every disk centre (the library's collision check
+    /// integrates the legs of the solved state; computed on each access).
+    #[getter]
+    fn shape<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let model = &*self.model;
+        let state = &self.solution.state;
+        let mut legs = CollisionChecker::new(model);
+        legs.check(model, state)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let points: Vec<Vec<Vector3<f64>>> = (0..3)
+            .map(|i| {
+                let base = model.base_frame(i, model.translation(i, &state.q)).position;
+                std::iter::once(base)
+                    .chain(legs.disk_centres(i).iter().copied())
+                    .collect()
+            })
+            .collect();
+        let k = points[0].len();
+        Ok(Array3::from_shape_fn((3, k, 3), |(i, j, c)| points[i][j][c]).into_pyarray(py))
     }
 
     /// The configuration, usable as `init` of the next solve.

@@ -18,6 +18,7 @@ from ._tdpcr import (
     Robot,
     Solution,
     State,
+    Tdcr,
     __version__,
 )
 
@@ -29,5 +30,6 @@ __all__ = [
     "Robot",
     "Solution",
     "State",
+    "Tdcr",
     "__version__",
 ]

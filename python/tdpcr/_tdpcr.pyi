@@ -6,7 +6,7 @@ NaN/infinite element raises ``ValueError`` naming the argument.
 """
 
 from os import PathLike
-from typing import Any, Literal, Optional, Union
+from typing import Any, Callable, Literal, Optional, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -104,6 +104,10 @@ class Solution:
     @property
     def state(self) -> State:
         """The configuration, usable as ``init`` of the next solve."""
+    @property
+    def shape(self) -> F64:
+        """The legs' backbones for plotting [m], world frame, shape (3, n_disks + 1, 3):
+        per leg its base point, then every disk centre (computed on each access)."""
 
 class Robot:
     """FK and IK of one design. Holds its buffers: one Robot per Python thread."""
@@ -170,10 +174,119 @@ class Robot:
         tolerance: Optional[float] = None,
         max_iterations: Optional[int] = None,
         jacobian: Jacobian = "exact",
+        threads: Optional[int] = None,
     ) -> dict[str, Any]:
         """FK of every row of ``q`` (m, n), cold-started, in parallel, GIL released.
 
-        Keys: ``position`` (m, 3), ``rotation`` (m, 3, 3), ``rotvec`` (m, 3), ``q``
-        (m, n), ``tensions`` (m, 3, n_t), ``iterations`` (m,) uint64, ``residual_norm``
-        (m,), ``converged`` (m,) bool (failed rows NaN), ``errors`` {row: message}.
+        ``threads``: rayon workers (None: all cores). Keys: ``position`` (m, 3) [m],
+        ``rotation`` (m, 3, 3), ``rotvec`` (m, 3) [rad], ``q`` (m, n) [m], ``tensions``
+        (m, 3, n_t) [N], ``iterations`` (m,) uint64, ``residual_norm`` (m,),
+        ``solve_time_us`` (m,) [µs], ``converged`` (m,) bool, ``errors`` {row: message}.
+        A failed row is 0 in every numeric output but ``iterations`` (never NaN): read
+        rows through ``converged``.
+        """
+    def ik_many(
+        self,
+        poses: ArrayLike,
+        wrench: Optional[ArrayLike] = None,
+        *,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+        limits: Literal["free", "strict"] = "free",
+        reference: Optional[ArrayLike] = None,
+        threads: Optional[int] = None,
+    ) -> dict[str, Any]:
+        """IK of every row of ``poses`` (m, 6) [x, y, z [m], rx, ry, rz [rad]],
+        cold-started, in parallel, GIL released; options as ``ik``; the dict of
+        ``fk_many``. Equals the loop of ``ik`` calls bit for bit.
+        """
+    def trajectory_fk(
+        self,
+        q: ArrayLike,
+        wrench: Optional[ArrayLike] = None,
+        *,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+    ) -> dict[str, Any]:
+        """FK along the rows of ``q`` (m, n) [m] in order, each step warm-started from
+        the previous solution (the first, and a step after a failed one, cold), GIL
+        released. Equals the loop ``s = robot.fk(q[k], wrench, init=s.state)`` bit for
+        bit. The dict of ``fk_many`` without ``tensions``; failed rows 0, masked by
+        ``converged``.
+        """
+    def trajectory_ik(
+        self,
+        poses: ArrayLike,
+        wrench: Optional[ArrayLike] = None,
+        *,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        jacobian: Jacobian = "exact",
+        limits: Literal["free", "strict"] = "free",
+        reference: Optional[ArrayLike] = None,
+    ) -> dict[str, Any]:
+        """IK along the rows of ``poses`` (m, 6) [x, y, z [m], rx, ry, rz [rad]],
+        warm-started in order as ``trajectory_fk``; options as ``ik``.
+        """
+    def workspace(
+        self,
+        *,
+        step: Optional[float] = None,
+        angle_step: Optional[float] = None,
+        z_range: Optional[ArrayLike] = None,
+        rotvec: Optional[ArrayLike] = None,
+        collisions: Literal["stop", "continue"] = "stop",
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+        progress: Optional[Callable[[int, int], Any]] = None,
+    ) -> dict[str, Any]:
+        """The workspace at the fixed orientation ``rotvec`` [rad] (the library's sweep:
+        rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
+        within ``z_range`` [m]), in parallel, GIL released. ``progress(rays_done,
+        rays_total)`` is called at most about four times a second and at the end; an
+        exception it raises is raised after the sweep.
+
+        Keys, one row per cell: ``cell`` (m, 3) int64, ``position`` (m, 3) [m],
+        ``rotvec`` (m, 3) [rad], ``q`` (m, n) [m], ``tensions`` (m, 3 n_t) [N],
+        ``reachable``, ``collision`` (m,) bool, ``rcond``, ``rcond_scaled`` ({name:
+        (m,)}), ``singularity`` ({"type_i", "type_ii", "leg": (m,) bool}),
+        ``min_tension`` (m,) [N], ``stable`` (m,) bool, ``min_compliance_eigenvalue``
+        (m,), ``leg_switch`` (m,) bool; ``summary``, ``settings`` (dicts, as the CLI's
+        workspace JSON). Raises ValueError (bad settings), ConvergenceError.
+        """
+
+class Tdcr:
+    """One tendon-driven continuum robot alone (``designs/tdcr_*.ron``), base at the
+    world origin. Holds its buffers: one Tdcr per Python thread."""
+
+    @staticmethod
+    def load(path: Union[str, "PathLike[str]"]) -> "Tdcr":
+        """Loads and validates a RON file. Raises DesignError."""
+    @staticmethod
+    def from_ron(text: str, source: str = "<string>") -> "Tdcr":
+        """Parses and validates RON text. Raises DesignError."""
+    @property
+    def n_tendons(self) -> int:
+        """Number of tendons n_t."""
+    def solve(
+        self,
+        tensions: Optional[ArrayLike] = None,
+        displacements: Optional[ArrayLike] = None,
+        *,
+        tip_force: Optional[ArrayLike] = None,
+        tip_moment: Optional[ArrayLike] = None,
+        init: Optional[dict[str, Any]] = None,
+        tolerance: Optional[float] = None,
+        max_iterations: Optional[int] = None,
+    ) -> dict[str, Any]:
+        """Equilibrium under ``tensions`` (n_t,) [N] or tendon length changes
+        ``displacements`` (n_t,) [m] (negative = pulled; exactly one), a tip force [N]
+        and moment [N·m] (world frame), warm from ``init`` (an earlier result's
+        ``state``). Keys as ``tdpcr tdcr --format json``: ``tip_position`` (3,) [m],
+        ``tip_rotation`` (3, 3), ``tensions`` (n_t,) [N], ``slacks`` (n_t,) [m],
+        ``iterations``, ``residual_evaluations``, ``residual_norm``, ``shape`` (n_disks,
+        3) [m] (disk centres, base excluded), ``shape_arcs`` (n_disks,) [m], ``state``
+        ({"u0", "v0", "gammas"}). Raises ConvergenceError, ValueError.
         """

@@ -1,0 +1,216 @@
+//! Batches of solves as dicts of stacked arrays: the independent, parallel batches
+//! (`fk_many`, `ik_many`, one cold solve per row on a rayon pool) and the warm-started
+//! trajectories (`trajectory_fk`, `trajectory_ik`, the library's
+//! [`tdpcr::trajectory::run_trajectory`]).
+//!
+//! Convention for a row whose solve failed: `converged[k]` is False, `errors[k]` says
+//! why, `iterations[k]` counts the Newton iterations done, and every other numeric
+//! output of the row (position, rotation, rotvec, q, tensions, residual_norm,
+//! solve_time_us) is 0, never NaN: read rows through the `converged` mask.
+
+use std::collections::HashMap;
+
+use nalgebra::{Rotation3, Vector3};
+use numpy::IntoPyArray;
+use numpy::ndarray::{Array1, Array2, Array3};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+
+use tdpcr::model::Model;
+use tdpcr::trajectory::StepResult;
+use tdpcr::{Error, Pose};
+
+/// The pose of a row [x, y, z, rx, ry, rz] (position [m], rotation vector [rad]).
+pub fn pose_of_row(row: &[f64]) -> Pose {
+    Pose {
+        position: Vector3::new(row[0], row[1], row[2]),
+        rotation: *Rotation3::new(Vector3::new(row[3], row[4], row[5])).matrix(),
+    }
+}
+
+/// `solve` of every item on `threads` workers (rayon's global pool if `None`), one
+/// clone of `template` per worker; results in input order.
+pub fn parallel<S, I, R>(
+    template: &S,
+    items: &[I],
+    threads: Option<usize>,
+    solve: impl Fn(&mut S, &I) -> R + Sync,
+) -> Result<Vec<R>, String>
+where
+    S: Clone + Send + Sync,
+    I: Sync,
+    R: Send,
+{
+    let run = || {
+        items
+            .par_iter()
+            .map_init(|| template.clone(), &solve)
+            .collect()
+    };
+    match threads {
+        None => Ok(run()),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map(|pool| pool.install(run))
+            .map_err(|e| e.to_string()),
+    }
+}
+
+/// `threads` checked: None or at least 1.
+pub fn threads_arg(threads: Option<usize>) -> PyResult<Option<usize>> {
+    match threads {
+        Some(0) => Err(PyValueError::new_err(
+            "threads: 0: expected at least 1 (or None for all cores)",
+        )),
+        t => Ok(t),
+    }
+}
+
+/// The stacked outputs of a batch, zero where a row failed.
+struct Stacked {
+    position: Array2<f64>,
+    rotation: Array3<f64>,
+    rotvec: Array2<f64>,
+    q: Array2<f64>,
+    iterations: Array1<u64>,
+    residual_norm: Array1<f64>,
+    solve_time_us: Array1<f64>,
+    converged: Array1<bool>,
+    errors: HashMap<usize, String>,
+}
+
+impl Stacked {
+    fn zeros(m: usize, n: usize) -> Self {
+        Self {
+            position: Array2::zeros((m, 3)),
+            rotation: Array3::zeros((m, 3, 3)),
+            rotvec: Array2::zeros((m, 3)),
+            q: Array2::zeros((m, n)),
+            iterations: Array1::zeros(m),
+            residual_norm: Array1::zeros(m),
+            solve_time_us: Array1::zeros(m),
+            converged: Array1::from_elem(m, false),
+            errors: HashMap::new(),
+        }
+    }
+
+    /// Row `k` from a converged pose, actuation and report.
+    #[allow(clippy::too_many_arguments)]
+    fn set(
+        &mut self,
+        k: usize,
+        position: &[f64; 3],
+        rotvec: &[f64; 3],
+        q: &[f64],
+        iterations: usize,
+        residual_norm: f64,
+        solve_time_us: f64,
+    ) {
+        let r = Rotation3::new(Vector3::from(*rotvec));
+        for i in 0..3 {
+            self.position[(k, i)] = position[i];
+            self.rotvec[(k, i)] = rotvec[i];
+            for j in 0..3 {
+                self.rotation[(k, i, j)] = r[(i, j)];
+            }
+        }
+        for (j, &x) in q.iter().enumerate() {
+            self.q[(k, j)] = x;
+        }
+        self.iterations[k] = iterations as u64;
+        self.residual_norm[k] = residual_norm;
+        self.solve_time_us[k] = solve_time_us;
+        self.converged[k] = true;
+    }
+
+    fn into_dict<'py>(self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let out = PyDict::new(py);
+        out.set_item("position", self.position.into_pyarray(py))?;
+        out.set_item("rotation", self.rotation.into_pyarray(py))?;
+        out.set_item("rotvec", self.rotvec.into_pyarray(py))?;
+        out.set_item("q", self.q.into_pyarray(py))?;
+        out.set_item("iterations", self.iterations.into_pyarray(py))?;
+        out.set_item("residual_norm", self.residual_norm.into_pyarray(py))?;
+        out.set_item("solve_time_us", self.solve_time_us.into_pyarray(py))?;
+        out.set_item("converged", self.converged.into_pyarray(py))?;
+        out.set_item("errors", self.errors)?;
+        Ok(out)
+    }
+}
+
+/// Iterations done by a failed solve (0 unless Newton ran and stopped).
+fn failed_iterations(e: &Error) -> usize {
+    match e {
+        Error::Solve(tdpcr::SolveError::NotConverged { iterations, .. }) => *iterations,
+        _ => 0,
+    }
+}
+
+/// Independent solves as stacked arrays, with tensions (m, 3, n_t) [N].
+pub fn stack_solutions<'py>(
+    py: Python<'py>,
+    model: &Model,
+    results: &[Result<tdpcr::Solution, Error>],
+) -> PyResult<Bound<'py, PyDict>> {
+    let (m, n, nt) = (results.len(), model.n_actuators(), model.n_tendons());
+    let mut stacked = Stacked::zeros(m, n);
+    let mut tensions = Array3::zeros((m, 3, nt));
+    for (k, r) in results.iter().enumerate() {
+        match r {
+            Ok(s) => {
+                let (st, rep) = (&s.state, &s.report);
+                stacked.set(
+                    k,
+                    &st.position,
+                    &st.rotvec,
+                    &st.q,
+                    rep.iterations,
+                    rep.residual_norm,
+                    s.solve_time_us,
+                );
+                for (i, leg) in s.tensions(model).iter().enumerate() {
+                    for (j, &t) in leg.iter().enumerate() {
+                        tensions[(k, i, j)] = t;
+                    }
+                }
+            }
+            Err(e) => {
+                stacked.iterations[k] = failed_iterations(e) as u64;
+                stacked.errors.insert(k, e.to_string());
+            }
+        }
+    }
+    let out = stacked.into_dict(py)?;
+    out.set_item("tensions", tensions.into_pyarray(py))?;
+    Ok(out)
+}
+
+/// The steps of a trajectory as stacked arrays.
+pub fn stack_steps<'py>(
+    py: Python<'py>,
+    n_actuators: usize,
+    steps: &[StepResult],
+) -> PyResult<Bound<'py, PyDict>> {
+    let mut stacked = Stacked::zeros(steps.len(), n_actuators);
+    for (k, s) in steps.iter().enumerate() {
+        if s.converged {
+            stacked.set(
+                k,
+                &s.position,
+                &s.rotvec,
+                &s.q,
+                s.iterations,
+                s.residual_norm.unwrap_or(0.0),
+                s.solve_time_us,
+            );
+        } else {
+            stacked.iterations[k] = s.iterations as u64;
+            let why = s.error.clone().unwrap_or_default();
+            stacked.errors.insert(k, why);
+        }
+    }
+    stacked.into_dict(py)
+}

@@ -1,0 +1,92 @@
+"""Solution.shape, tdpcr.Tdcr and Robot.workspace."""
+
+import numpy as np
+import pytest
+
+import tdpcr
+from conftest import DESIGNS, Q6
+
+
+def test_shape_runs_from_the_bases_to_the_platform(robot):
+    s = robot.fk(Q6)
+    shape = s.shape
+    assert shape.shape[0] == 3 and shape.shape[2] == 3 and shape.dtype == np.float64
+    assert np.isfinite(shape).all()
+    # Each leg's last disk is near the platform (within the coupling radius), its base far.
+    tips = np.linalg.norm(shape[:, -1] - s.position, axis=1)
+    bases = np.linalg.norm(shape[:, 0] - s.position, axis=1)
+    assert (tips < bases).all()
+    # Consecutive points are one disk spacing apart (inextensible up to strain).
+    steps = np.linalg.norm(np.diff(shape, axis=1), axis=2)
+    np.testing.assert_allclose(steps[:, 1:], steps[0, 1], rtol=1e-2)
+
+
+def tdcr():
+    return tdpcr.Tdcr.load(DESIGNS / "tdcr_one_segment.ron")
+
+
+def test_tdcr_tension_and_displacement_control_agree():
+    robot = tdcr()
+    assert robot.n_tendons == 2
+    by_tension = robot.solve(tensions=[1.0, 0.0])
+    assert by_tension["tip_position"].shape == (3,)
+    assert by_tension["shape"].shape[1] == 3
+    assert by_tension["shape"].shape[0] == by_tension["shape_arcs"].shape[0]
+    np.testing.assert_allclose(by_tension["shape"][-1], by_tension["tip_position"], atol=1e-12)
+    # A warm start from the state converges at once to the same tip.
+    warm = robot.solve(tensions=[1.0, 0.0], init=by_tension["state"])
+    assert warm["iterations"] <= 1
+    np.testing.assert_allclose(warm["tip_position"], by_tension["tip_position"], atol=1e-12)
+
+
+def test_tdcr_errors():
+    robot = tdcr()
+    with pytest.raises(ValueError, match="exactly one"):
+        robot.solve()
+    with pytest.raises(ValueError, match="tensions"):
+        robot.solve(tensions=[1.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="^tip_force:"):
+        robot.solve(tensions=[1.0, 0.0], tip_force=[0, 0])
+    with pytest.raises(ValueError, match="^init:"):
+        robot.solve(tensions=[1.0, 0.0], init={"u0": 1})
+    with pytest.raises(ValueError, match="tolerance"):
+        robot.solve(tensions=[1.0, 0.0], tolerance=0.0)
+    with pytest.raises(tdpcr.ConvergenceError) as e:
+        robot.solve(tensions=[5.0, 0.0], max_iterations=1)
+    assert e.value.reason == "iteration_limit" and e.value.iterations == 1
+    with pytest.raises(tdpcr.DesignError):
+        tdpcr.Tdcr.from_ron("Tdcr(")
+
+
+def coarse(robot, **kw):
+    return robot.workspace(step=0.01, angle_step=0.6, z_range=[-0.01, 0.0], **kw)
+
+
+def test_workspace_columns_and_progress(robot):
+    calls = []
+    ws = coarse(robot, progress=lambda done, total: calls.append((done, total)))
+    m = ws["position"].shape[0]
+    assert m > 0 and ws["cell"].shape == (m, 3) and ws["q"].shape == (m, 6)
+    assert ws["tensions"].shape == (m, 6)
+    assert ws["reachable"].dtype == np.bool_ and ws["reachable"].any()
+    assert set(ws["rcond"]) >= {"b_xu", "b_qu", "b_u"} and ws["rcond"]["b_xu"].shape == (m,)
+    assert set(ws["singularity"]) == {"type_i", "type_ii", "leg"}
+    assert ws["min_tension"].shape == (m,) and ws["stable"].dtype == np.bool_
+    assert ws["summary"]["counts"]["reachable"] == int(ws["reachable"].sum())
+    # Throttled: a start, at most a few per second, and the end.
+    assert calls and calls[-1][0] == calls[-1][1] and len(calls) <= 50
+
+
+def test_workspace_errors(robot):
+    with pytest.raises(ValueError, match="step"):
+        robot.workspace(step=-1.0)
+    with pytest.raises(ValueError, match="^collisions:"):
+        robot.workspace(collisions="ignore")
+    with pytest.raises(ValueError, match="^z_range:"):
+        robot.workspace(z_range=[0.0])
+
+    def fails(done, total):
+        raise KeyError("from the callback")
+
+    with pytest.raises(KeyError, match="from the callback"):
+        coarse(robot, progress=fails)
