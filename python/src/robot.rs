@@ -14,7 +14,7 @@ use tdpcr::kinetostatics::{JacobianMethod, Objective, Redundancy};
 use tdpcr::model::Model;
 use tdpcr::trajectory::{StepResult, Targets, run_trajectory};
 use tdpcr::workspace::{CollisionPolicy, WorkspaceSettings};
-use tdpcr::{AnalysisSettings, NewtonSettings, Pose, RobotState, Solver, Wrench};
+use tdpcr::{AnalysisSettings, Error, NewtonSettings, Pose, RobotState, Solver, Wrench};
 
 use crate::analysis::analysis_dict;
 use crate::arrays::vector;
@@ -105,6 +105,12 @@ fn wrench_arg(wrench: Option<&Bound<'_, PyAny>>) -> PyResult<Wrench> {
             }
         }
     })
+}
+
+/// Poses (m, 6) [x, y, z [m], rx, ry, rz [rad]] as poses.
+fn poses_arg(poses: &Bound<'_, PyAny>) -> PyResult<Vec<Pose>> {
+    let rows = crate::arrays::rows(poses, "poses", 6)?;
+    Ok(rows.iter().map(|r| pose_of_row(r)).collect())
 }
 
 /// A warm start: a `State` or a `Solution` (its state).
@@ -250,16 +256,9 @@ impl Robot {
         let wrench = wrench_arg(wrench)?;
         let threads = threads_arg(threads)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        let mut template = self.solver.clone();
-        template.jacobian = o.jacobian;
-        let results = py
-            .detach(|| {
-                parallel(&template, &rows, threads, |s, q| {
-                    s.solve_fk_with(q, &wrench, None, &o.settings)
-                })
-            })
-            .map_err(PyValueError::new_err)?;
-        stack_solutions(py, self.solver.model(), &results)
+        self.solve_many(py, &o, None, &rows, threads, |s, q, settings| {
+            s.solve_fk_with(q, &wrench, None, settings)
+        })
     }
 
     /// IK of every row of `poses` (m, 6) [x, y, z [m], rx, ry, rz [rad]], independently
@@ -279,25 +278,19 @@ impl Robot {
         reference: Option<&Bound<'py, PyAny>>,
         threads: Option<usize>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let poses: Vec<Pose> = crate::arrays::rows(poses, "poses", 6)?
-            .iter()
-            .map(|r| pose_of_row(r))
-            .collect();
+        let poses = poses_arg(poses)?;
         let wrench = wrench_arg(wrench)?;
         let threads = threads_arg(threads)?;
         let redundancy = self.redundancy(limits, reference)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        let mut template = self.solver.clone();
-        template.jacobian = o.jacobian;
-        template.redundancy = redundancy;
-        let results = py
-            .detach(|| {
-                parallel(&template, &poses, threads, |s, p| {
-                    s.solve_ik_with(p, &wrench, None, &o.settings)
-                })
-            })
-            .map_err(PyValueError::new_err)?;
-        stack_solutions(py, self.solver.model(), &results)
+        self.solve_many(
+            py,
+            &o,
+            Some(redundancy),
+            &poses,
+            threads,
+            |s, p, settings| s.solve_ik_with(p, &wrench, None, settings),
+        )
     }
 
     /// FK along the rows of `q` (m, n) [m] in order, each step warm-started from the
@@ -340,8 +333,7 @@ impl Robot {
         limits: &str,
         reference: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let rows = crate::arrays::rows(poses, "poses", 6)?;
-        let targets = Targets::Poses(rows.iter().map(|r| pose_of_row(r)).collect());
+        let targets = Targets::Poses(poses_arg(poses)?);
         let wrench = wrench_arg(wrench)?;
         let redundancy = self.redundancy(limits, reference)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
@@ -407,6 +399,34 @@ impl Robot {
 }
 
 impl Robot {
+    /// `solve` of every item, independently, on `threads` rayon workers (one clone of
+    /// this robot's solver with the call's Jacobian and redundancy each), without the
+    /// GIL; the results stacked.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_many<'py, I: Sync>(
+        &self,
+        py: Python<'py>,
+        o: &CallOptions,
+        redundancy: Option<Redundancy>,
+        items: &[I],
+        threads: Option<usize>,
+        solve: impl Fn(&mut Solver, &I, &NewtonSettings) -> Result<tdpcr::Solution, Error> + Sync,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let mut template = self.solver.clone();
+        template.jacobian = o.jacobian;
+        if let Some(r) = redundancy {
+            template.redundancy = r;
+        }
+        let results = py
+            .detach(|| {
+                parallel(&template, items, threads, |s, item| {
+                    solve(s, item, &o.settings)
+                })
+            })
+            .map_err(PyValueError::new_err)?;
+        stack_solutions(py, self.solver.model(), &results)
+    }
+
     /// The library's warm-started trajectory with the call's options, without the GIL.
     fn trajectory(
         &mut self,
