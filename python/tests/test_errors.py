@@ -69,3 +69,12 @@ def test_bad_arrays_raise_value_error_naming_the_argument(robot, call, name):
 def test_bad_settings_are_value_errors(robot):
     with pytest.raises(ValueError, match="tolerance"):
         robot.fk(Q6, tolerance=-1.0)
+
+
+def test_analysis_of_another_designs_solution_is_a_value_error(robot, redundant_robot):
+    other = redundant_robot.fk(np.zeros(9))
+    with pytest.raises(ValueError, match="state.q = 9 values: expected 6"):
+        robot.analyze(other)
+    # An exactly singular analysis raises AnalysisError (not reachable from a converged
+    # solution of the shipped designs); it is a RuntimeError like ConvergenceError.
+    assert issubclass(tdpcr.AnalysisError, RuntimeError)
