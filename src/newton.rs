@@ -951,6 +951,99 @@ mod tests {
         assert_eq!(ra, rb);
     }
 
+    /// a (x₀ + x₁) = b with a = 1e6 and x ~ 1 and an error of 1e-9 that acts as
+    /// round-off: its round-off floor ε a (|x₀| + |x₁|) is 7e-10, above a tolerance of
+    /// 1e-13.
+    struct Stiff {
+        jac: [f64; 2],
+    }
+
+    impl LineSearchSystem for Stiff {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &[f64],
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.jac = [1e6, 1e6];
+            self.residual(x, r)
+        }
+        fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            // Plus a round-off-like error of ±1e-9 that no step removes.
+            let noise = if x[0].to_bits() % 2 == 0 { 1e-9 } else { -1e-9 };
+            r[0] = 1e6 * (x[0] + x[1]) - 1e6 * std::f64::consts::PI + noise;
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+            sums[0] = self.jac[0] * x[0].abs() + self.jac[1] * x[1].abs();
+        }
+    }
+
+    /// The least-norm step of a 1×2 Jacobian.
+    struct LeastNorm;
+
+    impl StepRule<Stiff> for LeastNorm {
+        fn step(
+            &mut self,
+            system: &Stiff,
+            _: &[f64],
+            r: &DVector<f64>,
+            _: &DVector<f64>,
+            _: usize,
+        ) -> Result<Vec<f64>, StopReason> {
+            let [a, b] = system.jac;
+            let s = -r[0] / (a * a + b * b);
+            Ok(vec![a * s, b * s])
+        }
+    }
+
+    #[test]
+    fn a_line_search_stalled_at_the_round_off_floor_is_converged_there_only() {
+        let settings = NewtonSettings {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let mut x = vec![0.3, 0.7];
+        let report = solve_with_line_search(
+            &mut Stiff { jac: [0.0; 2] },
+            &mut LeastNorm,
+            &mut x,
+            &settings,
+        )
+        .unwrap();
+        assert!(report.converged_at_floor, "{report:?}");
+        assert!(report.residual_norm > settings.tolerance);
+        assert!((x[0] + x[1] - std::f64::consts::PI).abs() < 1e-14, "{x:?}");
+        // A tolerance the floor exceeds by more than MAX_FLOOR_RELAXATION still fails.
+        let strict = NewtonSettings {
+            tolerance: 1e-16,
+            ..settings
+        };
+        let err = solve_with_line_search(
+            &mut Stiff { jac: [0.0; 2] },
+            &mut LeastNorm,
+            &mut vec![0.3, 0.7],
+            &strict,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("line search"), "{err}");
+    }
+
+    #[test]
+    fn test_units_are_the_scales_below_one_and_never_looser_than_si() {
+        let s = RowScales::of_rod(1e-3, 4.0e-10, 16.0);
+        assert!((s.moment - 8e-5).abs() < 1e-18 && (s.force - 0.08).abs() < 1e-15);
+        assert_eq!(test_unit(s.length), 1e-3);
+        assert_eq!(test_unit(73.0), 1.0);
+        assert_eq!(test_unit(0.0), 1.0);
+        assert_eq!(test_unit(f64::NAN), 1.0);
+    }
+
     #[test]
     fn reports_failure_with_residual_and_iterations() {
         let mut x = DVector::from_vec(vec![3.0]);

@@ -38,7 +38,8 @@ pub struct TdcrSolution {
     pub state: TdcrState,
     /// Newton iterations and residual.
     pub report: NewtonReport,
-    /// ‖F‖₂ after each iteration, starting with the initial guess.
+    /// ‖F‖₂ in test units ([`NewtonSettings::tolerance`]) after each iteration, starting
+    /// with the initial guess.
     pub residual_history: Vec<f64>,
     /// Frames at the base and every disk.
     pub shape: LegShape,
@@ -52,7 +53,7 @@ pub struct TdcrSolver {
     leg: LegScratch,
     sens: LegSensitivities,
     newton: [NewtonScratch; 2],
-    /// Newton settings (tolerance on the SI residual norm, iteration limit).
+    /// Newton settings (tolerance on the residual norm in test units, iteration limit).
     pub settings: NewtonSettings,
 }
 
