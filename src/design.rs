@@ -418,3 +418,27 @@ impl Tdpcr {
         to_ron_string(self)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 14: a tendon offset beyond the disk radius is told against the radius first,
+    /// before the antagonistic-pair rule it also breaks.
+    #[test]
+    fn an_offset_beyond_the_disks_is_reported_against_their_radius_first() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron");
+        let text = std::fs::read_to_string(path).unwrap().replace(
+            "Tendon(angle: 3.141592653589793, offset: 0.005",
+            "Tendon(angle: 3.141592653589793, offset: 0.007",
+        );
+        let message = Tdpcr::from_ron_str(&text, "wide offset")
+            .unwrap_err()
+            .to_string();
+        let radius = message
+            .find("leg.tendons[1].offset = 0.007: expected <= disks.radius = 0.006 m")
+            .unwrap_or_else(|| panic!("{message}"));
+        let pair = message.find("antagonistic pair").unwrap_or(usize::MAX);
+        assert!(radius < pair, "{message}");
+    }
+}

@@ -8,8 +8,9 @@
 //! - Inside the region the full Newton step J δ = −F is taken, so convergence near the
 //!   solution is quadratic. Far from it the step bends towards steepest descent.
 //!
-//! Stopping: converged when the Euclidean norm of the unweighted SI residual is at most
-//! [`NewtonSettings::tolerance`]; failure when the iteration limit is reached or the trust
+//! Stopping: converged when the Euclidean norm of the residual in test units
+//! ([`NonlinearSystem::row_scales`], [`test_unit`]: each SI row divided by min(1, its
+//! characteristic size)) is at most [`NewtonSettings::tolerance`]; failure when the iteration limit is reached or the trust
 //! region shrinks below 1e-14 of ‖D x‖ (no further progress possible in double precision),
 //! except that a collapsed trust region with ‖F‖₂ within [`FLOOR_FACTOR`] of the residual's
 //! round-off floor ([`round_off_floor`]) is converged too
@@ -46,6 +47,13 @@ pub trait NonlinearSystem {
     /// Weight of each row in the merit function (about 1 / its typical size).
     fn row_weights(&self, w: &mut DVector<f64>);
 
+    /// The characteristic size c_i of each row relative to [`SI_TEST_SIZES`]
+    /// ([`RowScales::relative_to_si_test`]); the convergence test divides row i by
+    /// [`test_unit`]`(c_i)`. Default 1: the plain SI test.
+    fn row_scales(&self, c: &mut DVector<f64>) {
+        c.fill(1.0);
+    }
+
     /// The largest fraction α ∈ (0, 1] of `step` to take from `x` (default 1): a system
     /// with kinks (piecewise-linear unknowns) stops a step where it would cross one.
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
@@ -78,21 +86,119 @@ pub const MAX_FLOOR_RELAXATION: f64 = 1e4;
 /// tension or a load: its round-off is ε·EA), and x itself is known only to ε|x_j|, so F
 /// cannot be made reliably smaller.
 pub fn round_off_floor(jac: &DMatrix<f64>, x: &DVector<f64>) -> f64 {
-    let mut sum_sq = 0.0;
-    for i in 0..jac.nrows() {
-        let row: f64 = (0..jac.ncols())
+    floor_of_rows((0..jac.nrows()).map(|i| {
+        (0..jac.ncols())
             .map(|j| jac[(i, j)].abs() * x[j].abs())
-            .sum();
-        sum_sq += (f64::EPSILON * row).powi(2);
+            .sum()
+    }))
+}
+
+/// ε ‖(s_i)_i‖₂ of the row sums s_i = Σ_j |J_ij| |x_j| (already in test units).
+fn floor_of_rows(sums: impl Iterator<Item = f64>) -> f64 {
+    sums.map(|s| (f64::EPSILON * s).powi(2)).sum::<f64>().sqrt()
+}
+
+/// Characteristic sizes of the residual rows of a rod problem (SI), from which the
+/// convergence test's units follow ([`test_unit`]): a position or length row is compared
+/// with the rod's length L \[m\], a moment row with M* = EI / r_g = √(EI·EA) \[N·m\] (the
+/// bending moment at which the backbone's strain at its radius of gyration r_g = √(I/A) is
+/// one) and a force row with F* = M*/L \[N\]. All three scale like the robot (L like λ,
+/// F* like λ², M* like λ³ when every length is scaled by λ), so a residual in these units
+/// means the same relative accuracy at every size; and F*, M* are far above the residual's
+/// round-off floor ε·EA (its relative floor is ε·2L/r, 1.3e-13 for the reference leg).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowScales {
+    /// L \[m\].
+    pub length: f64,
+    /// F* = √(EI·EA)/L \[N\].
+    pub force: f64,
+    /// M* = √(EI·EA) \[N·m\].
+    pub moment: f64,
+}
+
+/// The row sizes from which on the convergence test is the plain SI one: a leg of 0.1 m,
+/// forces of 1 N, moments of 1 N·m. The reference robot (L = 0.145 m, F* = 73 N, M* =
+/// 10.6 N·m) is of this size class, so its test is the SI one; a smaller robot is tested
+/// in units of its own sizes relative to these (a 1 mm leg: positions 100× stricter).
+/// (With 1 m for lengths, the reference design's position rows became 6.9× stricter than
+/// the SI test and its Δ = 3 mm map lost 0.3 % of its cells to rays ending at the
+/// tightened test: −101 of 35 906 cells on z = −30…0 mm.)
+pub const SI_TEST_SIZES: RowScales = RowScales {
+    length: 0.1,
+    force: 1.0,
+    moment: 1.0,
+};
+
+impl RowScales {
+    /// These sizes divided by [`SI_TEST_SIZES`] (dimensionless): what
+    /// [`NonlinearSystem::row_scales`] reports.
+    pub fn relative_to_si_test(&self) -> Self {
+        Self {
+            length: self.length / SI_TEST_SIZES.length,
+            force: self.force / SI_TEST_SIZES.force,
+            moment: self.moment / SI_TEST_SIZES.moment,
+        }
     }
-    sum_sq.sqrt()
+
+    /// The scales of a rod of `length` L \[m\], bending stiffness EI \[N·m²\] and axial
+    /// stiffness EA \[N\].
+    pub fn of_rod(length: f64, bending_stiffness: f64, axial_stiffness: f64) -> Self {
+        let moment = (bending_stiffness * axial_stiffness).sqrt();
+        Self {
+            length,
+            force: moment / length,
+            moment,
+        }
+    }
+}
+
+/// The unit a residual row of relative size `c` (its size divided by [`SI_TEST_SIZES`])
+/// is measured in by the convergence test: min(c, 1) (1 where c is not a finite positive
+/// number). A row of a robot smaller than 0.1 m, 1 N or 1 N·m is measured relative to its
+/// size, so a tolerance means the same relative accuracy at every size below; a larger
+/// robot keeps the SI test, never looser, and reaches it up to its round-off floor
+/// ([`FLOOR_FACTOR`]).
+pub fn test_unit(c: f64) -> f64 {
+    if c.is_finite() && c > 0.0 {
+        c.min(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Whether a run that can reduce its residual norm `norm` no further is converged at its
+/// round-off `floor` (both in test units): `norm` ≤ [`FLOOR_FACTOR`] × floor. A floor far
+/// above the `tolerance` means an ill-scaled problem, not round-off: it does not relax the
+/// test (nor a NaN or infinite one).
+fn floor_accepts(norm: f64, floor: f64, tolerance: f64) -> bool {
+    norm.is_finite() && floor <= MAX_FLOOR_RELAXATION * tolerance && norm <= FLOOR_FACTOR * floor
+}
+
+/// ‖(r_i / u_i)_i‖₂ for residual `r` and test units `u`.
+fn test_norm(r: &DVector<f64>, u: &DVector<f64>) -> f64 {
+    r.iter()
+        .zip(u.iter())
+        .map(|(a, b)| (a / b) * (a / b))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// The test units of `system`'s rows, into `u`.
+fn fill_test_units(u: &mut DVector<f64>, scales: impl FnOnce(&mut DVector<f64>)) {
+    scales(u);
+    u.apply(|c| *c = test_unit(*c));
 }
 
 /// Stopping and globalization settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonSettings {
-    /// Converged when ‖F(x)‖₂ (SI, unweighted) ≤ tolerance; a square solve ([`solve`])
-    /// whose trust region collapses is also converged when ‖F‖₂ ≤ [`FLOOR_FACTOR`] × its
+    /// Converged when ‖F(x)‖₂ in test units ≤ tolerance: each SI row divided by
+    /// min(1, its characteristic size relative to [`SI_TEST_SIZES`]) ([`test_unit`],
+    /// [`RowScales`]: the rod's length, M* = √(EI·EA), F* = M*/L), so the SI residual for a
+    /// robot of the reference robot's size class (legs ≥ 0.1 m, F*, M* ≥ 1) and the same
+    /// relative residual for a smaller one (MODEL.md §9b). A run that can
+    /// reduce it no further ([`solve`]: its trust region collapses; [`solve_with_line_search`]:
+    /// its line search fails) is also converged when that norm ≤ [`FLOOR_FACTOR`] × its
     /// round-off floor ([`round_off_floor`]), for robots whose floor is above the tolerance
     /// (reported as [`NewtonReport::converged_at_floor`]).
     pub tolerance: f64,
@@ -229,7 +335,8 @@ pub struct NewtonReport {
     pub residual_evaluations: usize,
     /// Of those, the evaluations that also computed the Jacobian.
     pub jacobian_evaluations: usize,
-    /// Final ‖F(x)‖₂ (SI).
+    /// Final ‖F(x)‖₂ in the units of the convergence test (SI rows divided by
+    /// [`test_unit`]; the SI norm for a robot of metre and newton scale).
     pub residual_norm: f64,
     /// Converged at the round-off floor: the trust region collapsed with ‖F‖₂ above the
     /// tolerance but within [`FLOOR_FACTOR`] of [`round_off_floor`].
@@ -264,6 +371,8 @@ pub struct NewtonScratch {
     r_trial: DVector<f64>,
     x_trial: DVector<f64>,
     weights: DVector<f64>,
+    /// The unit of each row in the convergence test ([`test_unit`]).
+    units: DVector<f64>,
     /// The Jacobian: raw after an evaluation, row-weighted once factored.
     jac: DMatrix<f64>,
     jac_trial: DMatrix<f64>,
@@ -289,6 +398,7 @@ impl NewtonScratch {
             r_trial: v(),
             x_trial: v(),
             weights: v(),
+            units: v(),
             jac: DMatrix::zeros(n, n),
             jac_trial: DMatrix::zeros(n, n),
             lu: DenseLu::new(n),
@@ -303,7 +413,8 @@ impl NewtonScratch {
         }
     }
 
-    /// ‖F‖₂ after each accepted iterate of the last solve (the first is the start).
+    /// ‖F‖₂ in test units after each accepted iterate of the last solve (the first is the
+    /// start).
     pub fn residual_history(&self) -> &[f64] {
         &self.history
     }
@@ -373,6 +484,7 @@ pub fn solve<S: NonlinearSystem>(
         "newton::solve: size mismatch"
     );
     system.row_weights(&mut sc.weights);
+    fill_test_units(&mut sc.units, |c| system.row_scales(c));
     sc.history.clear();
     sc.factored = false;
     // Residual and Jacobian together: a start is rarely converged already (trajectory
@@ -381,12 +493,12 @@ pub fn solve<S: NonlinearSystem>(
     // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input far
     // outside the design's range, e.g. a base translation of 1e308 m) cannot be improved
     // on: say so.
-    let mut norm = sc.r.norm();
-    if !(norm.is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
+    if !(sc.r.norm().is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
         return Err(SolveError::NonFinite {
             stage: "the residual or Jacobian at the start",
         });
     }
+    let mut norm = test_norm(&sc.r, &sc.units);
     let mut evaluations = 1;
     let mut jacobians = 1;
     let mut iterations = 0;
@@ -563,26 +675,22 @@ pub fn solve<S: NonlinearSystem>(
                 break (with_jacobian, full_newton);
             }
             // A rejected step whose residual is already within tolerance still counts.
-            if actual.is_finite() && sc.r_trial.norm() <= settings.tolerance {
+            if actual.is_finite() && test_norm(&sc.r_trial, &sc.units) <= settings.tolerance {
                 x.copy_from(&sc.x_trial);
                 break (with_jacobian, full_newton);
             }
             rejected = true;
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
-                // The factored Jacobian is row-weighted: unweight it for the SI floor.
+                // The factored Jacobian is row-weighted: unweight it for the floor, in the
+                // test's units.
                 for i in 0..n {
-                    let w = sc.weights[i];
+                    let w = sc.weights[i] * sc.units[i];
                     for j in 0..n {
                         sc.jac_trial[(i, j)] = sc.jac[(i, j)] / w;
                     }
                 }
                 let floor = round_off_floor(&sc.jac_trial, x);
-                // A floor far above the tolerance means an ill-scaled problem, not
-                // round-off: it does not relax the test (nor a NaN or infinite one).
-                if norm.is_finite()
-                    && floor <= MAX_FLOOR_RELAXATION * settings.tolerance
-                    && norm <= FLOOR_FACTOR * floor
-                {
+                if floor_accepts(norm, floor, settings.tolerance) {
                     return Ok(NewtonReport {
                         converged_at_floor: true,
                         ..report
@@ -593,7 +701,7 @@ pub fn solve<S: NonlinearSystem>(
         };
         iterations += 1;
         sc.r.copy_from(&sc.r_trial);
-        norm = sc.r.norm();
+        norm = test_norm(&sc.r, &sc.units);
         sc.history.push(norm);
         let new_merit = weighted_norm_sq(&sc.r, &sc.weights);
         contracting = full_newton && new_merit <= settings.chord_contraction.powi(2) * merit;
@@ -635,6 +743,17 @@ pub trait LineSearchSystem {
 
     /// Weight of each row in the merit function ‖W F‖² (about 1 / its typical size).
     fn row_weights(&self, w: &mut DVector<f64>);
+
+    /// The characteristic size of each row in SI, as [`NonlinearSystem::row_scales`]
+    /// (default 1: the plain SI test).
+    fn row_scales(&self, c: &mut DVector<f64>) {
+        c.fill(1.0);
+    }
+
+    /// Σ_j |J_ij| |x_j| of each row i (SI) with the Jacobian J of the last
+    /// [`LineSearchSystem::residual_and_jacobian`] at `x`: the size of the terms each row
+    /// sums, for the round-off floor ([`round_off_floor`]).
+    fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>);
 }
 
 /// How each iteration of [`solve_with_line_search`] computes its step from the residual
@@ -659,8 +778,10 @@ pub trait StepRule<S> {
 /// Solves F(x) = 0 from the start in `x` (overwritten with the solution) by Gauss–Newton
 /// steps of `rule`, each shortened by a backtracking line search: α = 1, ½, … until the
 /// weighted residual ‖W F‖² falls below (1 − 1e-4 α) of its value at x (Armijo); the
-/// run fails once α < 1e-6. Every iteration evaluates the Jacobian; stops as [`solve`]
-/// ([`NewtonSettings::outcome`]).
+/// run fails once α < 1e-6, unless the residual (in test units) is within [`FLOOR_FACTOR`]
+/// of its round-off floor, as when [`solve`]'s trust region collapses
+/// ([`NewtonReport::converged_at_floor`]). Every iteration evaluates the Jacobian; stops as
+/// [`solve`] ([`NewtonSettings::outcome`]).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -675,6 +796,8 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     let m = system.dim();
     let mut weights = DVector::zeros(m);
     system.row_weights(&mut weights);
+    let mut units = DVector::zeros(m);
+    fill_test_units(&mut units, |c| system.row_scales(c));
     let mut r = DVector::zeros(m);
     let mut trial = DVector::zeros(m);
     let mut report = NewtonReport::none();
@@ -684,7 +807,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         system.residual_and_jacobian(x, &mut r)?;
         report.residual_evaluations += 1;
         report.jacobian_evaluations += 1;
-        report.residual_norm = r.norm();
+        report.residual_norm = test_norm(&r, &units);
         if report.iterations == 0 {
             first_norm = report.residual_norm;
         }
@@ -711,6 +834,16 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             alpha *= 0.5;
         };
         if !accepted {
+            let mut sums = trial;
+            system.jacobian_row_sums(x, &mut sums);
+            sums.component_div_assign(&units);
+            let floor = floor_of_rows(sums.iter().copied());
+            if floor_accepts(report.residual_norm, floor, settings.tolerance) {
+                return Ok(NewtonReport {
+                    converged_at_floor: true,
+                    ..report
+                });
+            }
             return Err(settings.not_converged(&report, StopReason::LineSearchFailed));
         }
         report.iterations += 1;
@@ -842,6 +975,99 @@ mod tests {
         assert!(ra.iterations > 3);
         assert_eq!(a, b);
         assert_eq!(ra, rb);
+    }
+
+    /// a (x₀ + x₁) = b with a = 1e6 and x ~ 1 and an error of 1e-9 that acts as
+    /// round-off: its round-off floor ε a (|x₀| + |x₁|) is 7e-10, above a tolerance of
+    /// 1e-13.
+    struct Stiff {
+        jac: [f64; 2],
+    }
+
+    impl LineSearchSystem for Stiff {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &[f64],
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.jac = [1e6, 1e6];
+            self.residual(x, r)
+        }
+        fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            // Plus a round-off-like error of ±1e-9 that no step removes.
+            let noise = if x[0].to_bits() % 2 == 0 { 1e-9 } else { -1e-9 };
+            r[0] = 1e6 * (x[0] + x[1]) - 1e6 * std::f64::consts::PI + noise;
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+            sums[0] = self.jac[0] * x[0].abs() + self.jac[1] * x[1].abs();
+        }
+    }
+
+    /// The least-norm step of a 1×2 Jacobian.
+    struct LeastNorm;
+
+    impl StepRule<Stiff> for LeastNorm {
+        fn step(
+            &mut self,
+            system: &Stiff,
+            _: &[f64],
+            r: &DVector<f64>,
+            _: &DVector<f64>,
+            _: usize,
+        ) -> Result<Vec<f64>, StopReason> {
+            let [a, b] = system.jac;
+            let s = -r[0] / (a * a + b * b);
+            Ok(vec![a * s, b * s])
+        }
+    }
+
+    #[test]
+    fn a_line_search_stalled_at_the_round_off_floor_is_converged_there_only() {
+        let settings = NewtonSettings {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let mut x = vec![0.3, 0.7];
+        let report = solve_with_line_search(
+            &mut Stiff { jac: [0.0; 2] },
+            &mut LeastNorm,
+            &mut x,
+            &settings,
+        )
+        .unwrap();
+        assert!(report.converged_at_floor, "{report:?}");
+        assert!(report.residual_norm > settings.tolerance);
+        assert!((x[0] + x[1] - std::f64::consts::PI).abs() < 1e-14, "{x:?}");
+        // A tolerance the floor exceeds by more than MAX_FLOOR_RELAXATION still fails.
+        let strict = NewtonSettings {
+            tolerance: 1e-16,
+            ..settings
+        };
+        let err = solve_with_line_search(
+            &mut Stiff { jac: [0.0; 2] },
+            &mut LeastNorm,
+            &mut vec![0.3, 0.7],
+            &strict,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("line search"), "{err}");
+    }
+
+    #[test]
+    fn test_units_are_the_scales_below_one_and_never_looser_than_si() {
+        let s = RowScales::of_rod(1e-3, 4.0e-10, 16.0);
+        assert!((s.moment - 8e-5).abs() < 1e-18 && (s.force - 0.08).abs() < 1e-15);
+        assert_eq!(test_unit(s.length), 1e-3);
+        assert_eq!(test_unit(73.0), 1.0);
+        assert_eq!(test_unit(0.0), 1.0);
+        assert_eq!(test_unit(f64::NAN), 1.0);
     }
 
     #[test]

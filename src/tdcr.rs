@@ -11,7 +11,9 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use crate::design::{MAX_TENDONS, Tdcr};
 use crate::error::{Error, SolveError, Violations};
 use crate::input_range::{diverged_if_non_finite, tdcr_inputs};
-use crate::newton::{self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem};
+use crate::newton::{
+    self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem, RowScales,
+};
 use crate::rod::tendon::{slack, slack_derivative, tension, tension_derivative};
 use crate::rod::{
     Frame, LegEnd, LegModel, LegScratch, LegSensitivities, LegShape, LegStart, integrate_leg,
@@ -36,7 +38,8 @@ pub struct TdcrSolution {
     pub state: TdcrState,
     /// Newton iterations and residual.
     pub report: NewtonReport,
-    /// ‖F‖₂ after each iteration, starting with the initial guess.
+    /// ‖F‖₂ in test units ([`NewtonSettings::tolerance`]) after each iteration, starting
+    /// with the initial guess.
     pub residual_history: Vec<f64>,
     /// Frames at the base and every disk.
     pub shape: LegShape,
@@ -50,7 +53,7 @@ pub struct TdcrSolver {
     leg: LegScratch,
     sens: LegSensitivities,
     newton: [NewtonScratch; 2],
-    /// Newton settings (tolerance on the SI residual norm, iteration limit).
+    /// Newton settings (tolerance on the residual norm in test units, iteration limit).
     pub settings: NewtonSettings,
 }
 
@@ -390,6 +393,19 @@ impl NonlinearSystem for TdcrSystem<'_> {
         }
         for i in 6..w.len() {
             w[i] = length;
+        }
+    }
+
+    fn row_scales(&self, c: &mut DVector<f64>) {
+        let m = self.model;
+        let s = RowScales::of_rod(m.length, m.bending_stiffness(), m.axial_stiffness())
+            .relative_to_si_test();
+        for i in 0..3 {
+            c[i] = s.force;
+            c[3 + i] = s.moment;
+        }
+        for i in 6..c.len() {
+            c[i] = s.length;
         }
     }
 }

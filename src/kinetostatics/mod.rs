@@ -77,8 +77,8 @@ pub struct Solver {
     boundary: BoundaryScratch,
     blocks: BoundaryJacobians,
     newton: NewtonScratch,
-    /// Default Newton settings of every solve (tolerance on ‖b‖₂ in SI units, iteration
-    /// limit); the `*_with` methods take others per call.
+    /// Default Newton settings of every solve (tolerance on ‖b‖₂ in test units, see
+    /// [`NewtonSettings::tolerance`]; iteration limit); the `*_with` methods take others per call.
     pub settings: NewtonSettings,
     /// Jacobian used by Newton.
     pub jacobian: JacobianMethod,

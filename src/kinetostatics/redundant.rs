@@ -24,7 +24,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::SOLVER_TENDON_UNKNOWN;
-use super::shooting::row_weights;
+use super::shooting::{row_scales, row_weights};
 use super::state::RobotState;
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives, boundary_residual,
@@ -134,6 +134,22 @@ impl LineSearchSystem for IkSystem<'_> {
 
     fn row_weights(&self, w: &mut DVector<f64>) {
         row_weights(self.model, w);
+    }
+
+    fn row_scales(&self, c: &mut DVector<f64>) {
+        row_scales(self.model, c);
+    }
+
+    fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+        let nq = self.model.n_actuators();
+        let (b_q, b_u) = (&self.blocks.b_q, &self.blocks.b_u);
+        for i in 0..sums.len() {
+            let q: f64 = (0..nq).map(|j| b_q[(i, j)].abs() * x[j].abs()).sum();
+            let y: f64 = (0..b_u.ncols())
+                .map(|j| b_u[(i, j)].abs() * x[nq + j].abs())
+                .sum();
+            sums[i] = q + y;
+        }
     }
 }
 

@@ -19,7 +19,7 @@ use crate::boundary::{
 };
 use crate::error::SolveError;
 use crate::model::{Model, Pose};
-use crate::newton::{self, NewtonReport, NewtonSettings, NonlinearSystem};
+use crate::newton::{self, NewtonReport, NewtonSettings, NonlinearSystem, RowScales};
 use crate::rod::Wrench;
 use crate::rod::tendon::TendonUnknown;
 
@@ -119,6 +119,28 @@ pub(super) fn run_with(
         });
     }
     Ok((state, report))
+}
+
+/// Characteristic sizes of the residual rows for the convergence test
+/// ([`NonlinearSystem::row_scales`]), from the leg's [`RowScales`]: force rows F*,
+/// moment rows M*, coupling-position and tendon-length rows the leg length L.
+pub(crate) fn row_scales(model: &Model, c: &mut DVector<f64>) {
+    let leg = &model.leg;
+    let s = RowScales::of_rod(leg.length, leg.bending_stiffness(), leg.axial_stiffness())
+        .relative_to_si_test();
+    let nu = model.n_leg_unknowns();
+    for i in 0..c.len() {
+        c[i] = if i < 3 {
+            s.force
+        } else if i < 6 {
+            s.moment
+        } else {
+            match (i - 6) % nu {
+                3..6 => s.moment,
+                _ => s.length,
+            }
+        };
+    }
 }
 
 /// Merit-function weights of the residual rows: force rows by L²/(EI), moment rows by
@@ -231,6 +253,10 @@ impl NonlinearSystem for ShootingSystem<'_> {
 
     fn row_weights(&self, w: &mut DVector<f64>) {
         row_weights(self.model, w);
+    }
+
+    fn row_scales(&self, c: &mut DVector<f64>) {
+        row_scales(self.model, c);
     }
 
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {

@@ -17,7 +17,7 @@
 //! respects the other limits), so the linearized boundary conditions hold to round-off
 //! and Newton keeps its quadratic convergence. A backtracking line search on the weighted
 //! residual only shortens steps, so every iterate stays within the limits (a box is
-//! convex) once one is. Converged when ‖b‖₂ ≤ tolerance.
+//! convex) once one is. Converged as every solve ([`NewtonSettings::tolerance`]).
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{

@@ -48,7 +48,8 @@ pub struct WorkspaceSettings {
     pub collisions: CollisionPolicy,
     /// Singularity thresholds of the per-point measures.
     pub analysis: AnalysisSettings,
-    /// Newton tolerance ε_b on ‖b‖₂ (SI) of every IK step.
+    /// Newton tolerance ε_b on ‖b‖₂ of every IK step, in test units
+    /// ([`crate::newton::NewtonSettings::tolerance`]).
     pub tolerance: f64,
     /// Newton iterations allowed per step. A warm step of Δ = 3 mm needs 2–4, but steps
     /// across a leg-singularity line (a leg's tendon pair switching, paper Fig. 9) can need

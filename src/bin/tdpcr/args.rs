@@ -115,7 +115,9 @@ pub enum JacobianArg {
 /// Newton options shared by every solving subcommand.
 #[derive(clap::Args)]
 pub struct NewtonArgs {
-    /// Newton tolerance on the Euclidean norm of the SI residual.
+    /// Newton tolerance on the Euclidean norm of the residual in test units: SI, with the
+    /// rows of a robot below 1 m / 1 N / 1 N·m relative to its length L, F* and M*
+    /// (docs/MODEL.md §9b).
     #[arg(long, default_value_t = 1e-10)]
     pub tolerance: f64,
     /// Most Newton iterations.
