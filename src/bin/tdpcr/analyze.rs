@@ -77,6 +77,9 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Error> {
         Some(dir) => tdpcr::analysis::plot::write_ellipsoid_plots(dir, &a.ellipsoids)?,
         None => Vec::new(),
     };
+    if let Some(path) = &args.view {
+        crate::view::write_configuration(path, "analyze", &solver, &sol, Some(&a.ellipsoids))?;
+    }
     let out = AnalyzeOutput {
         solution: ParallelOutput::new(&solver, &sol),
         analysis_time_us,
