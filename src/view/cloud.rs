@@ -25,7 +25,12 @@ struct Measure {
 }
 
 /// A toggled layer of cells: legend name, colour, which cells, shown at first.
-type Layer = (&'static str, &'static str, fn(&WorkspacePoint) -> bool, bool);
+type Layer = (
+    &'static str,
+    &'static str,
+    fn(&WorkspacePoint) -> bool,
+    bool,
+);
 
 const MEASURES: [Measure; 5] = [
     Measure {

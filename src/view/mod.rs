@@ -13,7 +13,7 @@ pub mod robot;
 
 pub use cloud::workspace_figure;
 pub use page::{Figure, html_page, write_page};
-pub use robot::{RobotView, robot_figure};
+pub use robot::{RobotView, robot_figure, robots_figure};
 
 /// Millimetres per metre: every length is drawn in mm.
 pub const MM: f64 = 1000.0;

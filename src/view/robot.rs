@@ -51,9 +51,20 @@ pub struct RobotView<'a> {
 /// # Errors
 /// [`SolveError::NonFinite`] if a leg integration blows up (not for a solved state).
 pub fn robot_figure(title: &str, view: &RobotView) -> Result<Figure, SolveError> {
+    robots_figure(title, &[(title, *view)])
+}
+
+/// A figure with one scene per (scene title, view), side by side, sharing one legend
+/// (toggling a layer toggles it in every scene).
+///
+/// # Errors
+/// As [`robot_figure`].
+pub fn robots_figure(title: &str, views: &[(&str, RobotView)]) -> Result<Figure, SolveError> {
     let mut figure = Figure::new(title);
-    let scene = figure.add_scene(title);
-    figure.traces = robot_traces(view, &scene, true)?;
+    for (k, (scene_title, view)) in views.iter().enumerate() {
+        let scene = figure.add_scene(*scene_title);
+        figure.traces.extend(robot_traces(view, &scene, k == 0)?);
+    }
     Ok(figure)
 }
 
