@@ -201,3 +201,33 @@ fn workspace_writes_a_page_of_its_cells_with_the_home_configuration() {
     );
     std::fs::remove_dir_all(out.parent().unwrap()).ok();
 }
+
+#[test]
+fn analyze_plot_also_draws_the_configuration_in_three_views() {
+    let dir = temp_dir("sketch");
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--q",
+        "0.004,0.02,-0.003,-0.01,0.002,0.03",
+        "--plot",
+        dir.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let path = dir.join("configuration.svg");
+    assert_eq!(v["configuration_plot"], path.to_str().unwrap());
+    assert_eq!(
+        v["plots"].as_array().unwrap().len(),
+        4,
+        "the ellipsoid plots as before"
+    );
+    let svg = std::fs::read_to_string(&path).unwrap();
+    assert!(svg.starts_with("<svg"));
+    for view in ["top (xy)", "front (xz)", "side (yz)", "x [mm]", "z [mm]"] {
+        assert!(svg.contains(view), "{view}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

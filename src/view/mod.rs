@@ -4,12 +4,15 @@
 //!
 //! Layout: [`page`] (a [`Figure`] of plotly traces and scenes, and the HTML around it),
 //! [`robot`] (one solved configuration: legs, disks, tendons, bases, platform, gravity,
-//! ellipsoids) and [`cloud`] (a workspace map as a point cloud with the home
-//! configuration inside).
+//! ellipsoids), [`cloud`] (a workspace map as a point cloud with the home
+//! configuration inside) and `sketch` (feature `plots`: a static SVG of a configuration
+//! in three orthographic views).
 
 pub mod cloud;
 pub mod page;
 pub mod robot;
+#[cfg(feature = "plots")]
+pub mod sketch;
 
 pub use cloud::workspace_figure;
 pub use page::{Figure, html_page, write_page};

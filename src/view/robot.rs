@@ -202,7 +202,7 @@ fn placed(mut trace: Value, scene: &str, group: &str, legend: bool) -> Value {
 }
 
 /// The backbone frames at the base and every disk of each leg.
-fn leg_shapes(model: &Model, state: &RobotState) -> Result<[LegShape; 3], SolveError> {
+pub(super) fn leg_shapes(model: &Model, state: &RobotState) -> Result<[LegShape; 3], SolveError> {
     let mut scratch = LegScratch::new();
     let mut end = LegEnd::zeros();
     let mut shapes: [LegShape; 3] = Default::default();
@@ -213,12 +213,28 @@ fn leg_shapes(model: &Model, state: &RobotState) -> Result<[LegShape; 3], SolveE
     Ok(shapes)
 }
 
-/// The tendons of the three legs through their disk holes: one trace of the taut ones
-/// (tension > 0, solid) and one of the slack ones (dashed), hover text with the tension.
-fn tendon_traces(model: &Model, state: &RobotState, shapes: &[LegShape; 3]) -> (Value, Value) {
-    let (mut taut, mut slack) = (Polyline::default(), Polyline::default());
-    let (mut taut_text, mut slack_text) = (Vec::new(), Vec::new());
+/// The path of every tendon through its disk holes (base hole first) and whether it is
+/// taut (tension > 0), legs in order, then tendons, with its hover label.
+#[cfg_attr(not(feature = "plots"), allow(dead_code))]
+pub(super) fn tendon_paths(
+    model: &Model,
+    state: &RobotState,
+    shapes: &[LegShape; 3],
+) -> Vec<(Vec<Vector3<f64>>, bool)> {
+    tendon_paths_labelled(model, state, shapes)
+        .into_iter()
+        .map(|(path, taut, _)| (path, taut))
+        .collect()
+}
+
+/// As [`tendon_paths`], each with its hover label.
+fn tendon_paths_labelled(
+    model: &Model,
+    state: &RobotState,
+    shapes: &[LegShape; 3],
+) -> Vec<(Vec<Vector3<f64>>, bool, String)> {
     let nu = model.n_leg_unknowns();
+    let mut out = Vec::new();
     for (i, shape) in shapes.iter().enumerate() {
         for k in 0..model.n_tendons() {
             let tau = tension(state.y_u[i * nu + k]);
@@ -232,15 +248,26 @@ fn tendon_traces(model: &Model, state: &RobotState, shapes: &[LegShape; 3]) -> (
                 .map(|(_, (p, r))| p + r * offset)
                 .collect();
             let label = format!("leg {} tendon {}: τ = {:.3} N", i + 1, k + 1, tau);
-            let (line, text) = if tau > 0.0 {
-                (&mut taut, &mut taut_text)
-            } else {
-                (&mut slack, &mut slack_text)
-            };
-            text.extend(std::iter::repeat_n(json!(label), path.len()));
-            text.push(Value::Null);
-            line.extend(path);
+            out.push((path, tau > 0.0, label));
         }
+    }
+    out
+}
+
+/// The tendons of the three legs through their disk holes: one trace of the taut ones
+/// (tension > 0, solid) and one of the slack ones (dashed), hover text with the tension.
+fn tendon_traces(model: &Model, state: &RobotState, shapes: &[LegShape; 3]) -> (Value, Value) {
+    let (mut taut, mut slack) = (Polyline::default(), Polyline::default());
+    let (mut taut_text, mut slack_text) = (Vec::new(), Vec::new());
+    for (path, is_taut, label) in tendon_paths_labelled(model, state, shapes) {
+        let (line, text) = if is_taut {
+            (&mut taut, &mut taut_text)
+        } else {
+            (&mut slack, &mut slack_text)
+        };
+        text.extend(std::iter::repeat_n(json!(label), path.len()));
+        text.push(Value::Null);
+        line.extend(path);
     }
     let mut t = taut.trace("tendons, taut (τ > 0)", "#e6550d", 4.0);
     t["text"] = Value::Array(taut_text);
@@ -394,7 +421,7 @@ fn mm(x: f64) -> f64 {
 
 /// The backbone through the frames of `shape`: cubic Hermite segments whose end tangents
 /// are the frames' z-axes (the rod is inextensible enough for unit-speed tangents).
-fn hermite(shape: &LegShape) -> Vec<Vector3<f64>> {
+pub(super) fn hermite(shape: &LegShape) -> Vec<Vector3<f64>> {
     let mut out = Vec::new();
     let frames = shape.positions.iter().zip(&shape.rotations);
     let pairs = frames

@@ -267,7 +267,8 @@ pub struct AnalyzeArgs {
     /// With --position: platform orientation as a rotation vector RX,RY,RZ [rad].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "position")]
     pub rotvec: Option<Vector3<f64>>,
-    /// Write the ellipsoids' xy and xz views as SVG files into this directory.
+    /// Write the ellipsoids' xy and xz views as SVG files into this directory, and
+    /// `configuration.svg` (the configuration in three orthographic views).
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Also write the solved configuration with the J_p and C_p ellipsoids as an interactive 3D page (one self-contained

@@ -1,6 +1,7 @@
 //! The interactive 3D pages of the CLI (`tdpcr::view`), written atomically: `--view
 //! FILE.html` of `fk`, `ik` and `analyze` (the solved configuration) and the
-//! `workspace.html` of `workspace --out DIR`.
+//! `workspace.html` of `workspace --out DIR`, and the SVG sketch `configuration.svg` of
+//! `analyze --plot DIR`.
 
 use std::path::{Path, PathBuf};
 
@@ -68,5 +69,14 @@ pub fn write_workspace(dir: &Path, design: &Tdpcr, map: &WorkspaceMap) -> Result
     let figure = workspace_figure(map, &model, home)?;
     let path = dir.join("workspace.html");
     write_page(&path, &figure)?;
+    Ok(path)
+}
+
+/// Writes `configuration.svg` (three orthographic views of `sol`) into `dir`, which
+/// exists (the ellipsoid plots are written first), and returns its path.
+pub fn write_sketch(dir: &Path, solver: &Solver, sol: &Solution) -> Result<PathBuf, Error> {
+    let svg = tdpcr::view::sketch::configuration_svg(solver.model(), &sol.state)?;
+    let path = dir.join("configuration.svg");
+    tdpcr::output::write_atomically(&path, svg.as_bytes())?;
     Ok(path)
 }
