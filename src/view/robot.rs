@@ -298,17 +298,24 @@ fn gravity_direction(model: &Model) -> Option<Vector3<f64>> {
     g.try_normalize(0.0)
 }
 
-/// Where the gravity arrow ends: beside the robot, level with the platform.
-fn gravity_anchor(shapes: &[LegShape; 3], platform: &[Vector3<f64>]) -> Vector3<f64> {
-    let all = shapes.iter().flat_map(|s| &s.positions).chain(platform);
+/// The smallest and the largest coordinates of `points` (±∞ for none).
+pub(super) fn bounding_box<'a>(
+    points: impl IntoIterator<Item = &'a Vector3<f64>>,
+) -> (Vector3<f64>, Vector3<f64>) {
     let (mut lo, mut hi) = (
         Vector3::repeat(f64::INFINITY),
         Vector3::repeat(f64::NEG_INFINITY),
     );
-    for p in all {
+    for p in points {
         lo = lo.inf(p);
         hi = hi.sup(p);
     }
+    (lo, hi)
+}
+
+/// Where the gravity arrow ends: beside the robot, level with the platform.
+fn gravity_anchor(shapes: &[LegShape; 3], platform: &[Vector3<f64>]) -> Vector3<f64> {
+    let (lo, hi) = bounding_box(shapes.iter().flat_map(|s| &s.positions).chain(platform));
     Vector3::new(
         hi.x + 0.1 * (hi.x - lo.x),
         (lo.y + hi.y) / 2.0,

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use plotters::prelude::*;
 
 use super::MM;
-use super::robot::{leg_shapes, tendon_paths};
+use super::robot::{bounding_box, leg_shapes, tendon_paths};
 use crate::error::{PlotError, SolveError};
 use crate::kinetostatics::RobotState;
 use crate::model::Model;
@@ -44,15 +44,7 @@ pub fn configuration_svg(model: &Model, state: &RobotState) -> Result<String, Pl
         .map(|i| model.base_frame(i, model.translation(i, &state.q)).position)
         .collect();
     // One scale for the three views: the cube around everything drawn.
-    let all = backbones.iter().flatten().chain(&platform).chain(&bases);
-    let (mut lo, mut hi) = (
-        Vector3::repeat(f64::INFINITY),
-        Vector3::repeat(f64::NEG_INFINITY),
-    );
-    for p in all {
-        lo = lo.inf(p);
-        hi = hi.sup(p);
-    }
+    let (lo, hi) = bounding_box(backbones.iter().flatten().chain(&platform).chain(&bases));
     let centre = (lo + hi) / 2.0 * MM;
     let half = ((hi - lo).max() / 2.0 * MM * 1.1).max(1.0);
     let mut svg = String::new();
