@@ -120,6 +120,8 @@ pub mod sampling;
 pub mod spatial;
 pub mod tdcr;
 pub mod trajectory;
+#[cfg(feature = "views")]
+pub mod view;
 pub mod workspace;
 
 pub use analysis::{Analysis, AnalysisSettings};

@@ -484,7 +484,9 @@ fn workspace_writes_points_summary_and_figures() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(names.len(), 5, "{names:?}");
+    // points.csv, summary.json, the slice figures and the 3D page workspace.html (issue 18).
+    assert_eq!(names.len(), 6, "{names:?}");
+    assert!(names.iter().any(|n| n == "workspace.html"), "{names:?}");
     // Bad input exits 2 and names every problem.
     let o = tdpcr(&[
         "workspace",
@@ -607,8 +609,9 @@ fn analyze_json_has_the_documented_keys_no_nan_and_writes_plots() {
         let svg = std::fs::read_to_string(dir.join(format!("{name}.svg"))).unwrap();
         assert!(svg.starts_with("<svg") && svg.contains("xz view"), "{name}");
     }
-    // No temporary files left behind.
-    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 4);
+    // No temporary files left behind: the four ellipsoids and configuration.svg (issue 18).
+    assert!(dir.join("configuration.svg").exists());
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 5);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -24,6 +24,7 @@
 
 pub mod cmaes;
 pub mod config;
+pub mod design_view;
 pub mod error;
 pub mod evaluate;
 pub mod figures;

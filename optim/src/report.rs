@@ -7,7 +7,9 @@
 //!   objectives, the composite and every other measure;
 //! - `report.md`: run summary, a table reference vs best (each objective, each parameter),
 //!   and the figures `pareto.svg`, `progress.svg` and, when given, the workspace slices of
-//!   the reference and the best design.
+//!   the reference and the best design;
+//! - `designs.html`: the reference and the best design side by side in 3D
+//!   ([`crate::design_view`]).
 //!
 //! Design files are ordinary `Tdpcr(...)` files: they load with
 //! [`tdpcr::Tdpcr::from_ron_file`].
@@ -566,6 +568,14 @@ pub fn write_outputs(
             put(&format!("{}/{name}", s.dir), svg)?;
         }
     }
-    put("report.md", &report_markdown(setup, result, slices, ctx))?;
+    let mut md = report_markdown(setup, result, slices, ctx);
+    if let Some(page) = crate::design_view::designs_page(setup, result) {
+        put("designs.html", &page)?;
+        md.push_str(
+            "\n## 3D view\n\nThe reference and the best design side by side in their home \
+             configurations: [designs.html](designs.html) (opens offline).\n",
+        );
+    }
+    put("report.md", &md)?;
     Ok(written)
 }

@@ -216,6 +216,16 @@ fn the_outputs_load_and_report_the_comparison() {
         let design = Tdpcr::from_ron_file(&path).unwrap();
         design.validate("reloaded").unwrap();
     }
+    // The 3D view of the reference and the best design, linked from the report.
+    let page = std::fs::read_to_string(dir.join("designs.html")).unwrap();
+    assert!(files.contains(&dir.join("designs.html")));
+    assert!(page.contains("\"reference\"") && page.contains("best composite (candidate "));
+    assert!(
+        !page.contains("no home configuration"),
+        "both designs solved at home"
+    );
+    let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(md.contains("[designs.html](designs.html)"));
     let best = Tdpcr::from_ron_file(dir.join("best_composite.ron")).unwrap();
     let rec = result.best_composite().unwrap();
     assert!((best.leg.length - rec.parameters["leg_length"]).abs() < 1e-15);

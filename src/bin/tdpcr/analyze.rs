@@ -44,6 +44,10 @@ struct AnalyzeOutput {
     stability: tdpcr::analysis::Stability,
     /// SVG files written by --plot.
     plots: Vec<PathBuf>,
+    /// `configuration.svg` written by --plot: three orthographic views of the
+    /// configuration (absent without --plot).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    configuration_plot: Option<PathBuf>,
 }
 
 /// A matrix as nested rows.
@@ -77,6 +81,13 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Error> {
         Some(dir) => tdpcr::analysis::plot::write_ellipsoid_plots(dir, &a.ellipsoids)?,
         None => Vec::new(),
     };
+    let configuration_plot = match &args.plot {
+        Some(dir) => Some(crate::view::write_sketch(dir, &solver, &sol)?),
+        None => None,
+    };
+    if let Some(path) = &args.view {
+        crate::view::write_configuration(path, "analyze", &solver, &sol, Some(&a.ellipsoids))?;
+    }
     let out = AnalyzeOutput {
         solution: ParallelOutput::new(&solver, &sol),
         analysis_time_us,
@@ -96,6 +107,7 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Error> {
         min_tension: a.min_tension,
         stability: a.stability,
         plots,
+        configuration_plot,
     };
     output::print(args.solve.format, &out, print_analysis);
     Ok(())
@@ -185,7 +197,7 @@ fn print_analysis(out: &AnalyzeOutput) {
         list(&st.eigenvalues_c_o),
         st.asymmetry
     );
-    for path in &out.plots {
+    for path in out.plots.iter().chain(&out.configuration_plot) {
         println!("wrote {}", path.display());
     }
     println!(

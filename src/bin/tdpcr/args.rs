@@ -171,6 +171,10 @@ pub struct FkArgs {
     /// Actuation q [m]: per leg [bend_x, (bend_y), translation], 6 or 9 values.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     pub q: Values,
+    /// Also write the solved configuration as an interactive 3D page (one self-contained
+    /// HTML file, opens offline).
+    #[arg(long, value_name = "FILE.html")]
+    pub view: Option<PathBuf>,
     #[command(flatten)]
     pub solve: SolveArgs,
 }
@@ -185,6 +189,10 @@ pub struct IkArgs {
     /// Platform orientation as a rotation vector RX,RY,RZ (axis × angle) [rad], world frame.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub rotvec: Option<Vector3<f64>>,
+    /// Also write the solved configuration as an interactive 3D page (one self-contained
+    /// HTML file, opens offline).
+    #[arg(long, value_name = "FILE.html")]
+    pub view: Option<PathBuf>,
     #[command(flatten)]
     pub redundancy: RedundancyArgs,
     #[command(flatten)]
@@ -261,9 +269,15 @@ pub struct AnalyzeArgs {
     /// With --position: platform orientation as a rotation vector RX,RY,RZ [rad].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "position")]
     pub rotvec: Option<Vector3<f64>>,
-    /// Write the ellipsoids' xy and xz views as SVG files into this directory.
+    /// Write the ellipsoids' xy and xz views as SVG files into this directory, and
+    /// `configuration.svg` (the configuration in three orthographic views).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Also write the solved configuration with the J_p and C_p ellipsoids as an interactive 3D page (one self-contained
+    /// HTML file, opens offline).
+    #[arg(long, value_name = "FILE.html")]
+    pub view: Option<PathBuf>,
+
     /// Type I flag threshold on the raw rcond of [B_q B_u] (default 3.5e-9).
     #[arg(long)]
     pub type_i_threshold: Option<f64>,

@@ -3,7 +3,8 @@
 //!
 //! Layout: [`args`] (the clap structs and value parsers), one module per subcommand
 //! ([`solve`] for `fk` and `ik`, [`analyze`], [`tdcr`], [`trajectory`], [`jacobian_check`],
-//! [`workspace`], [`validate`]), and [`output`] (JSON or text on stdout).
+//! [`workspace`], [`validate`]), [`output`] (JSON or text on stdout) and [`view`] (the
+//! `--view` HTML page).
 
 mod analyze;
 mod args;
@@ -13,6 +14,7 @@ mod solve;
 mod tdcr;
 mod trajectory;
 mod validate;
+mod view;
 mod workspace;
 
 use std::process::ExitCode;

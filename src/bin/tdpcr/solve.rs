@@ -191,6 +191,9 @@ pub fn report(
 pub fn run_fk(args: &FkArgs) -> Result<(), Error> {
     let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
     let result = solver.solve_fk(&args.q.0, &wrench, init.as_ref());
+    if let (Ok(sol), Some(path)) = (&result, &args.view) {
+        crate::view::write_configuration(path, "fk", &solver, sol, None)?;
+    }
     report(&solver, result, args.solve.format)
 }
 
@@ -200,5 +203,8 @@ pub fn run_ik(args: &IkArgs) -> Result<(), Error> {
     args.redundancy.apply(&mut solver)?;
     let pose = pose_arg(args.position, args.rotvec)?;
     let result = solver.solve_ik(&pose, &wrench, init.as_ref());
+    if let (Ok(sol), Some(path)) = (&result, &args.view) {
+        crate::view::write_configuration(path, "ik", &solver, sol, None)?;
+    }
     report(&solver, result, args.solve.format)
 }

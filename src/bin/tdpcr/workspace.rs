@@ -1,5 +1,6 @@
 //! `tdpcr workspace`: the translational workspace sweep for a fixed orientation, on a
-//! thread pool, with a progress bar on a terminal; writes the map's files.
+//! thread pool, with a progress bar on a terminal; writes the map's files and its 3D
+//! page `workspace.html`.
 
 use std::io::IsTerminal;
 
@@ -79,7 +80,8 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let written = files::write_outputs(&map, &args.out)?;
+    let mut written = files::write_outputs(&map, &args.out)?;
+    written.push(crate::view::write_workspace(&args.out, &design, &map)?);
     let s = &map.summary;
     println!(
         "{} reachable cells ({:.3e} m³), {} near Type II, {} collision, {} unstable; planes z \
