@@ -8,12 +8,15 @@
 //! - `design.rs`: `Design` (a validated design file);
 //! - `solution.rs`: `State` (a configuration, a warm start) and `Solution`;
 //! - `robot.rs`: `Robot` (fk, ik, analyze, fk_many);
-//! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts.
+//! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts;
+//! - `optim.rs`: the design search's steps (`DesignSearch`) and evaluation
+//!   (`SearchProblem`) for the distributed driver `tdpcr.optim`.
 
 mod analysis;
 mod arrays;
 mod design;
 mod errors;
+mod optim;
 mod robot;
 mod solution;
 
@@ -28,6 +31,8 @@ fn _tdpcr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::Robot>()?;
     m.add_class::<solution::Solution>()?;
     m.add_class::<solution::State>()?;
+    m.add_class::<optim::DesignSearch>()?;
+    m.add_class::<optim::SearchProblem>()?;
     m.add("DesignError", py.get_type::<errors::DesignError>())?;
     m.add(
         "ConvergenceError",
