@@ -14,7 +14,7 @@ if [ ! -x "$venv/bin/python" ]; then
     "${PYTHON:-python3}" -m venv "$venv"
 fi
 py="$venv/bin/python"
-"$py" -m pip install --quiet --disable-pip-version-check maturin numpy pytest
+"$py" -m pip install --quiet --disable-pip-version-check maturin numpy pytest distributed
 # --force-reinstall: the version does not change between commits, the code does.
 "$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$root/python"
 

@@ -66,6 +66,14 @@ pub enum OptimError {
         /// Box point the search asks for now.
         asked: Vec<f64>,
     },
+    /// A driver of [`crate::search::Search`] told a result that does not fit the step.
+    #[error("result of candidate {id:?} told out of turn: expected {expected}")]
+    UnexpectedRecord {
+        /// The candidate id told (`None`: no result at all).
+        id: Option<usize>,
+        /// What the step expected.
+        expected: String,
+    },
     /// The optimizer was misused (a bug).
     #[error(transparent)]
     Cmaes(#[from] CmaesError),

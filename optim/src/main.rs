@@ -9,12 +9,12 @@ use clap::Parser;
 
 use tdpcr_optim::OptimError;
 use tdpcr_optim::objectives::Outcome;
-use tdpcr_optim::report::{ReportContext, SliceSet, write_outputs};
+use tdpcr_optim::report::{ReportContext, load_average, write_outputs};
 use tdpcr_optim::runlog::{LOG_FILE, Record};
 use tdpcr_optim::search::{
-    EvaluationStatus, GenerationReport, Observer, Overrides, SearchResult, Setup, run_search,
+    EvaluationStatus, GenerationReport, Observer, Overrides, Setup, run_search,
 };
-use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_set};
+use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_sets};
 
 /// Design optimization of tendon-driven parallel continuum robots: CMA-ES over the
 /// design parameters of CONFIG for workspace volume, isotropy and singularity margin,
@@ -107,43 +107,6 @@ impl Observer for Progress {
     }
 }
 
-fn load_average() -> Option<String> {
-    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
-    Some(
-        text.split_whitespace()
-            .take(3)
-            .collect::<Vec<_>>()
-            .join(", "),
-    )
-}
-
-/// Slice figures of the reference and the best composite design.
-fn slices(setup: &Setup, result: &SearchResult) -> (Vec<SliceSet>, Option<String>) {
-    let eval = &setup.config.evaluation;
-    let figures = setup.config.figures.as_ref();
-    let mut designs = vec![("reference", "slices/reference", setup.space.base().clone())];
-    if let Some(best) = result.best_composite() {
-        if let Ok(d) = setup.space.design(&best.x) {
-            designs.push(("best composite", "slices/best_composite", d));
-        }
-    }
-    let mut out = Vec::new();
-    for (label, dir, design) in designs {
-        eprintln!("slice figures: sweeping the {label} design ...");
-        match slice_set(&design, eval, figures, label, dir) {
-            Ok(s) => out.push(s),
-            Err(reason) => eprintln!("no slice figures of the {label} design: {reason}"),
-        }
-    }
-    let (step, angle) = figures.map_or((eval.step, eval.angle_step), |f| (f.step, f.angle_step));
-    let note = format!(
-        "From one sweep per design at Δ = {} mm, φ = {angle} rad, R_ee = rotvec {:?} (grey reachable, red near Type II, blue collision).",
-        step * 1e3,
-        eval.orientations.first().copied().unwrap_or_default()
-    );
-    (out, Some(note))
-}
-
 fn run(cli: &Cli) -> Result<(), OptimError> {
     let overrides = Overrides {
         budget_evals: cli.budget_evals,
@@ -164,7 +127,7 @@ fn run(cli: &Cli) -> Result<(), OptimError> {
     );
     let result = run_search(&setup, &evaluator, &cli.out, cli.resume, &Progress)?;
     eprintln!("search ended: {}", result.termination);
-    let (slice_sets, slices_note) = slices(&setup, &result);
+    let (slice_sets, slices_note) = slice_sets(&setup, &result, &|line| eprintln!("{line}"));
     let ctx = ReportContext {
         command: std::env::args().collect::<Vec<_>>().join(" "),
         threads,

@@ -53,6 +53,17 @@ pub struct ReportContext {
     pub slices_note: Option<String>,
 }
 
+/// `/proc/loadavg` (1, 5, 15 min), if readable: the load of the machine, for the report.
+pub fn load_average() -> Option<String> {
+    let text = std::fs::read_to_string("/proc/loadavg").ok()?;
+    Some(
+        text.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(", "),
+    )
+}
+
 /// The design files: (file name, title, record).
 pub fn design_choices(result: &SearchResult) -> Vec<(&'static str, &'static str, &Record)> {
     let mut out = Vec::new();

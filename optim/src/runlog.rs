@@ -57,6 +57,23 @@ pub struct RunInfo {
 }
 
 impl RunInfo {
+    /// The text of `run.ron` (also how a run travels to another process).
+    pub fn to_ron(&self) -> String {
+        run_info_text(self)
+    }
+
+    /// Parses the text of [`RunInfo::to_ron`]; `source` names it in errors.
+    ///
+    /// # Errors
+    /// [`OptimError::CorruptLog`] naming `source` and the line.
+    pub fn from_ron(text: &str, source: &Path) -> Result<Self, OptimError> {
+        ron::de::from_str(text).map_err(|e| OptimError::CorruptLog {
+            path: source.to_path_buf(),
+            line: e.span.start.line,
+            message: e.code.to_string(),
+        })
+    }
+
     /// The differences that forbid resuming `stored` with `self`: every config field
     /// except the budget (which may grow) and the base design's path (its content is
     /// compared instead). Returns (field, stored, now) triples.
@@ -149,11 +166,7 @@ impl ResultsLog {
             Ok(t) => t,
             Err(_) => return Err(OptimError::NoRun { path: run_path }),
         };
-        let stored: RunInfo = ron::de::from_str(&text).map_err(|e| OptimError::CorruptLog {
-            path: run_path.clone(),
-            line: e.span.start.line,
-            message: e.code.to_string(),
-        })?;
+        let stored = RunInfo::from_ron(&text, &run_path)?;
         let diffs = info.differences(&stored);
         if !diffs.is_empty() {
             return Err(OptimError::ResumeMismatch {

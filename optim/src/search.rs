@@ -4,6 +4,14 @@
 //! [`ParameterSpace`], the method is [`CmaEs`], progress goes to an [`Observer`], and
 //! the end is a [`TerminationReason`]).
 //!
+//! The steps are those of [`Search`], a driver that any executor can run: [`Search::ask`]
+//! hands out the candidates to evaluate (the reference first), anyone evaluates them
+//! with [`evaluate_candidate`] (a pure function of the setup and the candidate),
+//! [`Search::record`] logs one result, [`Search::tell`] ends the generation, and
+//! [`Search::finish`] returns the [`SearchResult`]. [`run_search`] is these steps with
+//! the evaluations on rayon's threads; the Python package runs the same steps with the
+//! evaluations on a Dask cluster.
+//!
 //! **Reproducibility.** CMA-ES draws every random number on this thread from the seed,
 //! the candidates are evaluated independently, and the results are told in candidate
 //! order: the same config, seed and budget give the same candidates and outcomes whatever
@@ -17,6 +25,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use tdpcr::Tdpcr;
 use tdpcr::error::Violations;
 
@@ -25,6 +34,7 @@ use crate::config::OptimConfig;
 use crate::error::OptimError;
 use crate::evaluate::{Evaluator, evaluate_design, evaluate_point};
 use crate::objectives::Composite;
+use crate::objectives::Outcome;
 use crate::pareto::{dominates, pareto_front};
 use crate::runlog::{Record, ResultsLog, RunInfo};
 use crate::space::ParameterSpace;
@@ -100,6 +110,15 @@ impl Setup {
             config_path: config_path.to_path_buf(),
             space,
         })
+    }
+
+    /// The setup of a run identity (as sent to another process); `source` names it in
+    /// errors.
+    ///
+    /// # Errors
+    /// [`OptimError::Config`] listing every problem.
+    pub fn from_run_info(info: RunInfo, source: &Path) -> Result<Self, OptimError> {
+        Self::new(info.config, info.base_design, source, &Overrides::default())
     }
 
     /// The run identity stored in the output directory.
@@ -279,8 +298,469 @@ impl SearchResult {
     }
 }
 
+/// One candidate to evaluate: the reference (id 0, the base design itself) or a point of
+/// a CMA-ES generation. Serializable, to send it to another process.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Candidate {
+    /// 0 for the reference; candidates from 1, in the order asked.
+    pub id: usize,
+    /// CMA-ES generation (from 0); `None` for the reference.
+    pub generation: Option<usize>,
+    /// The point in the unit box (the reference's may lie outside \[0, 1\]).
+    pub x: Vec<f64>,
+}
+
+/// The result of one candidate's evaluation, as [`evaluate_candidate`] returns it.
+/// Serializable, to send it back from another process.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Evaluation {
+    /// The candidate's id.
+    pub id: usize,
+    /// What the evaluation found.
+    pub outcome: Outcome,
+    /// Wall time of the evaluation \[s\].
+    pub eval_time_s: f64,
+}
+
+/// Evaluates `candidate` of the search `setup` with `evaluator`: the base design itself
+/// for the reference, else the design of the candidate's box point. A pure function of
+/// its arguments (except the wall time), callable on any thread or machine.
+pub fn evaluate_candidate(
+    setup: &Setup,
+    evaluator: &dyn Evaluator,
+    candidate: &Candidate,
+) -> Evaluation {
+    let (outcome, eval_time_s) = if candidate.id == 0 {
+        let t = Instant::now();
+        let outcome = evaluate_design(evaluator, setup.space.base());
+        (outcome, t.elapsed().as_secs_f64())
+    } else {
+        evaluate_point(&setup.space, evaluator, &candidate.x)
+    };
+    Evaluation {
+        id: candidate.id,
+        outcome,
+        eval_time_s,
+    }
+}
+
+/// The generation between [`Search::ask`] and [`Search::tell`].
+#[derive(Debug)]
+struct Pending {
+    /// Generation index (from 0).
+    generation: usize,
+    /// Id of the generation's first candidate.
+    first_id: usize,
+    /// The points CMA-ES asked for (λ of them).
+    xs: Vec<Vec<f64>>,
+    /// One slot per candidate within the budget; `Some` once done.
+    slots: Vec<Option<Record>>,
+}
+
+impl Pending {
+    fn candidate(&self, i: usize) -> Candidate {
+        Candidate {
+            id: self.first_id + i,
+            generation: Some(self.generation),
+            x: self.xs[i].clone(),
+        }
+    }
+
+    /// The candidates whose slot is empty.
+    fn todo(&self) -> Vec<Candidate> {
+        (0..self.slots.len())
+            .filter(|&i| self.slots[i].is_none())
+            .map(|i| self.candidate(i))
+            .collect()
+    }
+}
+
+/// A search as a sequence of steps (ask, evaluate anywhere, record, tell, finish), with
+/// its log and resume. See the module documentation.
+pub struct Search<'a> {
+    setup: Setup,
+    observer: &'a dyn Observer,
+    start: Instant,
+    deadline: Option<Instant>,
+    log: ResultsLog,
+    /// Records of a resumed run's log by id.
+    logged: BTreeMap<usize, Record>,
+    /// The reference's record and the composite it normalizes, once evaluated.
+    reference: Option<(Record, Composite)>,
+    es: CmaEs,
+    pending: Option<Pending>,
+    /// Candidates done so far (evaluated or taken from the log), by id.
+    candidates: Vec<Record>,
+    /// Candidates done, counted by [`Search::record`] from any thread.
+    done: AtomicUsize,
+    evaluated: usize,
+    from_log: usize,
+    best: Option<(f64, usize)>,
+    termination: Option<TerminationReason>,
+}
+
+impl<'a> Search<'a> {
+    /// Starts (or, with `resume`, continues) the search of `setup`, logging to `dir`.
+    ///
+    /// # Errors
+    /// [`OptimError::RunExists`] / [`OptimError::NoRun`] / [`OptimError::ResumeMismatch`] /
+    /// [`OptimError::CorruptLog`] for a directory that does not fit the request,
+    /// [`OptimError::Io`] if the log cannot be written.
+    pub fn open(
+        setup: Setup,
+        dir: &Path,
+        resume: bool,
+        observer: &'a dyn Observer,
+    ) -> Result<Self, OptimError> {
+        let start = Instant::now();
+        let (log, logged) = if resume {
+            ResultsLog::resume(dir, &setup.run_info())?
+        } else {
+            (ResultsLog::create(dir, &setup.run_info())?, BTreeMap::new())
+        };
+        let config = &setup.config;
+        let x0: Vec<f64> = setup
+            .space
+            .normalize(&setup.space.values_of(setup.space.base()))
+            .iter()
+            .map(|v| v.clamp(0.0, 1.0))
+            .collect();
+        let es = CmaEs::new(
+            &CmaesSettings::new(x0, config.initial_step, config.population_size())?,
+            config.seed,
+        );
+        let deadline = config
+            .budget
+            .wall_time_s
+            .map(|s| start + Duration::from_secs_f64(s));
+        let mut search = Self {
+            observer,
+            start,
+            deadline,
+            log,
+            logged,
+            reference: None,
+            es,
+            pending: None,
+            candidates: Vec::new(),
+            done: AtomicUsize::new(0),
+            evaluated: 0,
+            from_log: 0,
+            best: None,
+            termination: None,
+            setup,
+        };
+        if let Some(r) = search.logged.get(&0).cloned() {
+            search.set_reference(r);
+        }
+        Ok(search)
+    }
+
+    /// The search's setup.
+    pub fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// Why the search ended, once [`Search::ask`] has found that it has.
+    pub fn termination(&self) -> Option<TerminationReason> {
+        self.termination
+    }
+
+    fn past_deadline(&self) -> bool {
+        self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    fn set_reference(&mut self, reference: Record) {
+        let config = &self.setup.config;
+        let composite = Composite::new(
+            &config.objectives,
+            config.aggregation,
+            reference.outcome.measures(),
+        );
+        let reference = Record {
+            composite: composite.of(&reference.outcome),
+            ..reference
+        };
+        self.observer.reference(&reference);
+        self.reference = Some((reference, composite));
+    }
+
+    /// The candidates to evaluate next: the reference alone first, then the candidates of
+    /// one generation that are not in the log of a resumed run (generations entirely in
+    /// the log are replayed here). Empty when the search has ended. Asking again before
+    /// [`Search::tell`] returns the generation's candidates still missing.
+    ///
+    /// # Errors
+    /// [`OptimError::ReplayMismatch`] if a logged candidate is not the one asked for.
+    pub fn ask(&mut self) -> Result<Vec<Candidate>, OptimError> {
+        let Some((_, composite)) = &self.reference else {
+            let space = &self.setup.space;
+            return Ok(vec![Candidate {
+                id: 0,
+                generation: None,
+                x: space.normalize(&space.values_of(space.base())),
+            }]);
+        };
+        let composite = composite.clone();
+        loop {
+            if self.termination.is_some() {
+                return Ok(Vec::new());
+            }
+            if let Some(p) = &self.pending {
+                return Ok(p.todo());
+            }
+            let budget = self.setup.config.budget.evaluations;
+            let remaining = budget.map_or(usize::MAX, |b| b.saturating_sub(self.candidates.len()));
+            if remaining == 0 {
+                self.termination = Some(TerminationReason::EvaluationBudget {
+                    evaluations: self.candidates.len(),
+                });
+                continue;
+            }
+            if let Some(c) = self.es.convergence(CONVERGENCE_TOLERANCE) {
+                self.termination = Some(TerminationReason::Converged(c));
+                continue;
+            }
+            if self.past_deadline() {
+                self.termination = Some(self.wall_time());
+                continue;
+            }
+            let lambda = self.setup.config.population_size();
+            let mut pending = Pending {
+                generation: self.es.generation(),
+                first_id: self.candidates.len() + 1,
+                xs: self.es.ask(),
+                slots: vec![None; lambda.min(remaining)],
+            };
+            self.done.store(self.candidates.len(), Ordering::Relaxed);
+            for i in 0..pending.slots.len() {
+                let id = pending.first_id + i;
+                let Some(r) = self.logged.get(&id) else {
+                    continue;
+                };
+                if r.x != pending.xs[i] {
+                    return Err(OptimError::ReplayMismatch {
+                        id,
+                        logged: r.x.clone(),
+                        asked: pending.xs[i].clone(),
+                    });
+                }
+                let record = Record {
+                    composite: composite.of(&r.outcome),
+                    ..r.clone()
+                };
+                self.observer.evaluated(&record, &self.status(true));
+                self.from_log += 1;
+                pending.slots[i] = Some(record);
+            }
+            let todo = pending.todo();
+            self.pending = Some(pending);
+            if !todo.is_empty() {
+                return Ok(todo);
+            }
+            self.tell(Vec::new())?;
+        }
+    }
+
+    fn wall_time(&self) -> TerminationReason {
+        TerminationReason::WallTime {
+            seconds: self.setup.config.budget.wall_time_s.unwrap_or(0.0),
+        }
+    }
+
+    fn status(&self, from_log: bool) -> EvaluationStatus {
+        EvaluationStatus {
+            done: self.done.fetch_add(1, Ordering::Relaxed) + 1,
+            budget: self.setup.config.budget.evaluations,
+            elapsed_s: self.start.elapsed().as_secs_f64(),
+            from_log,
+        }
+    }
+
+    /// Logs the evaluation of `candidate` (one line, flushed) and returns its record, to
+    /// be told. Callable from several threads at once, in any order.
+    ///
+    /// # Errors
+    /// [`OptimError::Io`] if the log cannot be written.
+    pub fn record(
+        &self,
+        candidate: &Candidate,
+        evaluation: Evaluation,
+    ) -> Result<Record, OptimError> {
+        let space = &self.setup.space;
+        let values = if candidate.id == 0 {
+            space.values_of(space.base())
+        } else {
+            space.values(&candidate.x)
+        };
+        let record = Record {
+            id: candidate.id,
+            generation: candidate.generation,
+            x: candidate.x.clone(),
+            parameters: self.setup.parameter_map(&values),
+            composite: self
+                .reference
+                .as_ref()
+                .and_then(|(_, c)| c.of(&evaluation.outcome)),
+            outcome: evaluation.outcome,
+            eval_time_s: evaluation.eval_time_s,
+        };
+        self.log.append(&record)?;
+        if candidate.id != 0 {
+            self.observer.evaluated(&record, &self.status(false));
+        }
+        Ok(record)
+    }
+
+    /// Takes the records of the candidates asked for (any order; those not evaluated
+    /// because the wall time ran out left out): the reference's, or the generation's,
+    /// which is then told to CMA-ES; a generation cut short ends the search.
+    ///
+    /// # Errors
+    /// [`OptimError::UnexpectedRecord`] for a record of a candidate that was not asked for
+    /// (or given twice); [`OptimError::Cmaes`] on a misuse of the optimizer (a bug).
+    pub fn tell(&mut self, records: Vec<Record>) -> Result<(), OptimError> {
+        if self.reference.is_none() {
+            let mut records = records.into_iter();
+            match (records.next(), records.next()) {
+                (Some(r), None) if r.id == 0 => self.set_reference(r),
+                (r, _) => return Err(unexpected(r.map(|r| r.id), "the reference (id 0) alone")),
+            }
+            return Ok(());
+        }
+        let Some(mut pending) = self.pending.take() else {
+            return Err(unexpected(
+                records.first().map(|r| r.id),
+                "no record: no generation is pending",
+            ));
+        };
+        for r in records {
+            let i = r.id.wrapping_sub(pending.first_id);
+            match pending.slots.get_mut(i) {
+                Some(slot @ None) => *slot = Some(r),
+                _ => {
+                    let expected = format!(
+                        "the missing candidates of generation {} (ids {}..={})",
+                        pending.generation,
+                        pending.first_id,
+                        pending.first_id + pending.slots.len() - 1
+                    );
+                    self.pending = Some(pending);
+                    return Err(unexpected(Some(r.id), &expected));
+                }
+            }
+            self.evaluated += 1;
+        }
+        let composite = &self.reference.as_ref().expect("reference told").1;
+        let complete =
+            pending.slots.len() == pending.xs.len() && pending.slots.iter().all(Option::is_some);
+        let fitness: Vec<f64> = pending
+            .slots
+            .iter()
+            .flatten()
+            .map(|r| composite.fitness(&r.outcome))
+            .collect();
+        for r in pending.slots.iter().flatten() {
+            if let Some(c) = r.composite {
+                if self.best.is_none_or(|(b, _)| c > b) {
+                    self.best = Some((c, r.id));
+                }
+            }
+        }
+        let feasible = pending
+            .slots
+            .iter()
+            .flatten()
+            .filter(|r| r.composite.is_some())
+            .count();
+        self.candidates.extend(pending.slots.into_iter().flatten());
+        let budget = self.setup.config.budget.evaluations;
+        if !complete {
+            // A partial generation: the budget or the deadline cut it.
+            self.termination = Some(
+                if self.past_deadline() && self.candidates.len() < budget.unwrap_or(usize::MAX) {
+                    self.wall_time()
+                } else {
+                    TerminationReason::EvaluationBudget {
+                        evaluations: self.candidates.len(),
+                    }
+                },
+            );
+            return Ok(());
+        }
+        self.es.tell(&fitness)?;
+        self.observer.generation(&GenerationReport {
+            generation: pending.generation,
+            done: self.candidates.len(),
+            feasible,
+            best: self.best,
+            sigma: self.es.sigma(),
+            elapsed_s: self.start.elapsed().as_secs_f64(),
+        });
+        Ok(())
+    }
+
+    /// [`Search::record`] then [`Search::tell`] of evaluations done elsewhere, logged in
+    /// candidate order (whatever order they come in).
+    ///
+    /// # Errors
+    /// As [`Search::record`] and [`Search::tell`]; nothing is logged if an evaluation is
+    /// not of a candidate asked for.
+    pub fn tell_evaluations(&mut self, mut evaluations: Vec<Evaluation>) -> Result<(), OptimError> {
+        let asked = self.ask()?;
+        evaluations.sort_by_key(|e| e.id);
+        let mut pairs = Vec::with_capacity(evaluations.len());
+        for (k, e) in evaluations.iter().enumerate() {
+            let repeated = k > 0 && evaluations[k - 1].id == e.id;
+            match asked.iter().find(|c| c.id == e.id) {
+                Some(c) if !repeated => pairs.push((c.clone(), e.clone())),
+                _ => return Err(unexpected(Some(e.id), "a candidate asked for, once")),
+            }
+        }
+        let records = pairs
+            .into_iter()
+            .map(|(c, e)| self.record(&c, e))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.tell(records)
+    }
+
+    /// The result, once [`Search::ask`] has returned no candidate.
+    ///
+    /// # Errors
+    /// [`OptimError::UnexpectedRecord`] if the search has not ended.
+    pub fn finish(self) -> Result<SearchResult, OptimError> {
+        let (Some(termination), Some((reference, composite))) = (self.termination, self.reference)
+        else {
+            return Err(unexpected(
+                None,
+                "ask until it returns no candidate before finishing",
+            ));
+        };
+        Ok(SearchResult {
+            reference,
+            candidates: self.candidates,
+            composite,
+            termination,
+            evaluated: self.evaluated,
+            from_log: self.from_log,
+            generations: self.es.generation(),
+            wall_time_s: self.start.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+fn unexpected(id: Option<usize>, expected: &str) -> OptimError {
+    OptimError::UnexpectedRecord {
+        id,
+        expected: expected.to_string(),
+    }
+}
+
 /// Runs (or, with `resume`, continues) the search of `setup` with `evaluator`, logging to
-/// `dir`.
+/// `dir`: the steps of [`Search`] with each generation's candidates evaluated on rayon's
+/// threads, each logged as it finishes.
 ///
 /// # Errors
 /// [`OptimError::RunExists`] / [`OptimError::NoRun`] / [`OptimError::ResumeMismatch`] /
@@ -293,188 +773,27 @@ pub fn run_search(
     resume: bool,
     observer: &dyn Observer,
 ) -> Result<SearchResult, OptimError> {
-    let start = Instant::now();
-    let config = &setup.config;
-    let space = &setup.space;
-    let (log, logged) = if resume {
-        ResultsLog::resume(dir, &setup.run_info())?
-    } else {
-        (ResultsLog::create(dir, &setup.run_info())?, BTreeMap::new())
-    };
-
-    let base_values = space.values_of(space.base());
-    let base_x = space.normalize(&base_values);
-    let reference = match logged.get(&0) {
-        Some(r) => r.clone(),
-        None => {
-            let t = Instant::now();
-            let outcome = evaluate_design(evaluator, space.base());
-            let record = Record {
-                id: 0,
-                generation: None,
-                x: base_x.clone(),
-                parameters: setup.parameter_map(&base_values),
-                outcome,
-                composite: None,
-                eval_time_s: t.elapsed().as_secs_f64(),
-            };
-            log.append(&record)?;
-            record
+    let mut search = Search::open(setup.clone(), dir, resume, observer)?;
+    loop {
+        let todo = search.ask()?;
+        if todo.is_empty() {
+            break;
         }
-    };
-    let composite = Composite::new(
-        &config.objectives,
-        config.aggregation,
-        reference.outcome.measures(),
-    );
-    let reference = Record {
-        composite: composite.of(&reference.outcome),
-        ..reference
-    };
-    observer.reference(&reference);
-
-    let lambda = config.population_size();
-    let x0: Vec<f64> = base_x.iter().map(|v| v.clamp(0.0, 1.0)).collect();
-    let mut es = CmaEs::new(
-        &CmaesSettings::new(x0, config.initial_step, lambda)?,
-        config.seed,
-    );
-    let budget = config.budget.evaluations;
-    let deadline = config
-        .budget
-        .wall_time_s
-        .map(|s| start + Duration::from_secs_f64(s));
-    let past_deadline = || deadline.is_some_and(|d| Instant::now() >= d);
-    let mut candidates: Vec<Record> = Vec::new();
-    let (mut evaluated, mut from_log) = (0usize, 0usize);
-    let mut best: Option<(f64, usize)> = None;
-    let termination = loop {
-        let remaining = budget.map_or(usize::MAX, |b| b.saturating_sub(candidates.len()));
-        if remaining == 0 {
-            break TerminationReason::EvaluationBudget {
-                evaluations: candidates.len(),
-            };
-        }
-        if let Some(c) = es.convergence(CONVERGENCE_TOLERANCE) {
-            break TerminationReason::Converged(c);
-        }
-        let wall = || TerminationReason::WallTime {
-            seconds: config.budget.wall_time_s.unwrap_or(0.0),
-        };
-        if past_deadline() {
-            break wall();
-        }
-        let generation = es.generation();
-        let xs = es.ask();
-        let first_id = candidates.len() + 1;
-        let count = lambda.min(remaining);
-        let done = AtomicUsize::new(candidates.len());
-        let status = |from_log| EvaluationStatus {
-            done: done.fetch_add(1, Ordering::Relaxed) + 1,
-            budget,
-            elapsed_s: start.elapsed().as_secs_f64(),
-            from_log,
-        };
-        let mut slots: Vec<Option<Record>> = vec![None; count];
-        let mut todo = Vec::new();
-        for (i, slot) in slots.iter_mut().enumerate() {
-            let id = first_id + i;
-            match logged.get(&id) {
-                Some(r) if r.x != xs[i] => {
-                    return Err(OptimError::ReplayMismatch {
-                        id,
-                        logged: r.x.clone(),
-                        asked: xs[i].clone(),
-                    });
-                }
-                Some(r) => {
-                    let record = Record {
-                        composite: composite.of(&r.outcome),
-                        ..r.clone()
-                    };
-                    observer.evaluated(&record, &status(true));
-                    from_log += 1;
-                    *slot = Some(record);
-                }
-                None => todo.push(i),
-            }
-        }
-        let results: Vec<(usize, Option<Result<Record, OptimError>>)> = todo
+        let records: Vec<Option<Result<Record, OptimError>>> = todo
             .par_iter()
-            .map(|&i| {
-                if past_deadline() {
-                    return (i, None);
+            .map(|c| {
+                // The reference is always evaluated; a candidate not past the deadline.
+                if c.id != 0 && search.past_deadline() {
+                    return None;
                 }
-                let (outcome, eval_time_s) = evaluate_point(space, evaluator, &xs[i]);
-                let record = Record {
-                    id: first_id + i,
-                    generation: Some(generation),
-                    x: xs[i].clone(),
-                    parameters: setup.parameter_map(&space.values(&xs[i])),
-                    composite: composite.of(&outcome),
-                    outcome,
-                    eval_time_s,
-                };
-                let logged = log.append(&record);
-                if logged.is_ok() {
-                    observer.evaluated(&record, &status(false));
-                }
-                (i, Some(logged.map(|()| record)))
+                Some(search.record(c, evaluate_candidate(setup, evaluator, c)))
             })
             .collect();
-        for (i, r) in results {
-            if let Some(r) = r {
-                slots[i] = Some(r?);
-                evaluated += 1;
-            }
-        }
-        let complete = count == lambda && slots.iter().all(Option::is_some);
-        let fitness: Vec<f64> = slots
-            .iter()
+        let records = records
+            .into_iter()
             .flatten()
-            .map(|r| composite.fitness(&r.outcome))
-            .collect();
-        for r in slots.iter().flatten() {
-            if let Some(c) = r.composite {
-                if best.is_none_or(|(b, _)| c > b) {
-                    best = Some((c, r.id));
-                }
-            }
-        }
-        let feasible = slots
-            .iter()
-            .flatten()
-            .filter(|r| r.composite.is_some())
-            .count();
-        candidates.extend(slots.into_iter().flatten());
-        if !complete {
-            // A partial generation: the budget or the deadline cut it.
-            break if past_deadline() && candidates.len() < budget.unwrap_or(usize::MAX) {
-                wall()
-            } else {
-                TerminationReason::EvaluationBudget {
-                    evaluations: candidates.len(),
-                }
-            };
-        }
-        es.tell(&fitness)?;
-        observer.generation(&GenerationReport {
-            generation,
-            done: candidates.len(),
-            feasible,
-            best,
-            sigma: es.sigma(),
-            elapsed_s: start.elapsed().as_secs_f64(),
-        });
-    };
-    Ok(SearchResult {
-        reference,
-        candidates,
-        composite,
-        termination,
-        evaluated,
-        from_log,
-        generations: es.generation(),
-        wall_time_s: start.elapsed().as_secs_f64(),
-    })
+            .collect::<Result<Vec<_>, _>>()?;
+        search.tell(records)?;
+    }
+    search.finish()
 }

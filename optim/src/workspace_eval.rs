@@ -25,6 +25,7 @@ use crate::config::{EvaluationConfig, FigureSweep};
 use crate::evaluate::Evaluator;
 use crate::objectives::{Infeasibility, MeanMin, Measures, Outcome};
 use crate::report::SliceSet;
+use crate::search::{SearchResult, Setup};
 
 /// Evaluates designs by coarse workspace sweeps.
 #[derive(Debug, Clone, PartialEq)]
@@ -183,4 +184,37 @@ pub fn slice_set(
         files: slice_figures(&map),
         measures: Some(measures(std::slice::from_ref(&map))),
     })
+}
+
+/// Slice figures of the reference and the best composite design of `result` (one sweep
+/// each, at the figures' resolution), and the report's note on them; `progress` gets a
+/// line before each sweep and for each design without figures.
+pub fn slice_sets(
+    setup: &Setup,
+    result: &SearchResult,
+    progress: &dyn Fn(&str),
+) -> (Vec<SliceSet>, Option<String>) {
+    let eval = &setup.config.evaluation;
+    let figures = setup.config.figures.as_ref();
+    let mut designs = vec![("reference", "slices/reference", setup.space.base().clone())];
+    if let Some(best) = result.best_composite() {
+        if let Ok(d) = setup.space.design(&best.x) {
+            designs.push(("best composite", "slices/best_composite", d));
+        }
+    }
+    let mut out = Vec::new();
+    for (label, dir, design) in designs {
+        progress(&format!("slice figures: sweeping the {label} design ..."));
+        match slice_set(&design, eval, figures, label, dir) {
+            Ok(s) => out.push(s),
+            Err(reason) => progress(&format!("no slice figures of the {label} design: {reason}")),
+        }
+    }
+    let (step, angle) = figures.map_or((eval.step, eval.angle_step), |f| (f.step, f.angle_step));
+    let note = format!(
+        "From one sweep per design at Δ = {} mm, φ = {angle} rad, R_ee = rotvec {:?} (grey reachable, red near Type II, blue collision).",
+        step * 1e3,
+        eval.orientations.first().copied().unwrap_or_default()
+    );
+    (out, Some(note))
 }

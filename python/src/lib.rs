@@ -11,13 +11,16 @@
 //! - `batch.rs`: batches as stacked arrays (parallel `*_many`, warm `trajectory_*`);
 //! - `tdcr.rs`: `Tdcr` (one continuum robot alone, tension or displacement control);
 //! - `workspace.rs`: the workspace sweep as columns of arrays, with a progress callback;
-//! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts.
+//! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts;
+//! - `optim.rs`: the design search's steps (`DesignSearch`) and evaluation
+//!   (`SearchProblem`) for the distributed driver `tdpcr.optim`.
 
 mod analysis;
 mod arrays;
 mod batch;
 mod design;
 mod errors;
+mod optim;
 mod robot;
 mod solution;
 mod tdcr;
@@ -35,6 +38,8 @@ fn _tdpcr(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<solution::Solution>()?;
     m.add_class::<solution::State>()?;
     m.add_class::<tdcr::Tdcr>()?;
+    m.add_class::<optim::DesignSearch>()?;
+    m.add_class::<optim::SearchProblem>()?;
     m.add("DesignError", py.get_type::<errors::DesignError>())?;
     m.add(
         "ConvergenceError",

@@ -290,3 +290,37 @@ class Tdcr:
         3) [m] (disk centres, base excluded), ``shape_arcs`` (n_disks,) [m], ``state``
         ({"u0", "v0", "gammas"}). Raises ConvergenceError, ValueError.
         """
+
+# The design search's steps for the distributed driver `tdpcr.optim` (issue 16).
+class DesignSearch:
+    """One search of ``tdpcr-optim`` in the run directory ``out``, driven step by step."""
+
+    def __init__(
+        self,
+        config: Union[str, PathLike[str]],
+        out: Union[str, PathLike[str]],
+        *,
+        seed: Optional[int] = None,
+        budget_evals: Optional[int] = None,
+        resume: bool = False,
+    ) -> None: ...
+    @property
+    def problem(self) -> str:
+        """The effective config and base design (RON) for ``SearchProblem``."""
+    @property
+    def population(self) -> int: ...
+    @property
+    def termination(self) -> Optional[str]: ...
+    def ask(self) -> list[str]:
+        """The candidates to evaluate next (JSON); empty when the search has ended."""
+    def tell(self, results: list[str]) -> None:
+        """Logs the results (JSON, any order) in candidate order and tells CMA-ES."""
+    def finish(self, command: str, workers: int) -> dict[str, Any]:
+        """Writes the outputs of the ended search; returns a summary."""
+
+class SearchProblem:
+    """The evaluation of a search's candidates, built from ``DesignSearch.problem``."""
+
+    def __init__(self, problem: str) -> None: ...
+    def evaluate(self, candidate: str) -> str:
+        """The result (JSON) of one candidate (JSON), GIL released."""
