@@ -349,7 +349,7 @@ fn rk4_step<const N: usize>(
     const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
         let input = if i == 0 { &sc.y } else { &sc.y_stage };
-        sc.stage.eval(model, input, tau, active, &mut sc.k)?;
+        sc.stage.eval(model, input, tau, active, &mut sc.k, N > 0)?;
         let b = weight * h / 6.0;
         if i == 0 {
             sc.y_next = sc.y;

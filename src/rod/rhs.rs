@@ -165,7 +165,8 @@ impl Stage {
 
     /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` \[N\],
     /// writing the derivative of p, R, v, u and s to `out` and keeping what
-    /// [`Stage::linearize`] needs.
+    /// [`Stage::linearize`] needs if `keep` (a primal-only integration passes `false` and
+    /// skips those stores: 12 % fewer instructions per primal leg integration, issue 12).
     ///
     /// # Errors
     /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not
@@ -178,6 +179,7 @@ impl Stage {
         tau: &[f64; MAX_TENDONS],
         active: u32,
         out: &mut RodState,
+        keep: bool,
     ) -> Result<(), SolveError> {
         let (v, u) = (y.v, y.u);
         let n_body = model.k_se.component_mul(&(v - Vector3::z()));
@@ -234,15 +236,17 @@ impl Stage {
         out.r = times_hat(&y.r, &u);
         out.v = dv;
         out.u = du;
-        self.r = y.r;
-        self.v = v;
-        self.u = u;
-        self.n_body = n_body;
-        self.m_body = m_body;
-        self.dv = dv;
-        self.du = du;
-        self.factor = factor;
-        self.active = active;
+        if keep {
+            self.r = y.r;
+            self.v = v;
+            self.u = u;
+            self.n_body = n_body;
+            self.m_body = m_body;
+            self.dv = dv;
+            self.du = du;
+            self.factor = factor;
+            self.active = active;
+        }
         Ok(())
     }
 
