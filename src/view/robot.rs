@@ -78,11 +78,7 @@ pub fn robot_traces(view: &RobotView, scene: &str, legend: bool) -> Result<Vec<V
     let state = view.state;
     let shapes = leg_shapes(model, state)?;
     let pose = state.pose();
-    let platform: Vec<Vector3<f64>> = model
-        .coupling_points
-        .iter()
-        .map(|c| pose.position + pose.rotation * c)
-        .collect();
+    let platform = platform_corners(model, state);
     let size = platform_size(model);
     let mut traces = Vec::new();
     let mut add = |t: Value, group: &str| traces.push(placed(t, scene, group, legend));
@@ -280,6 +276,16 @@ fn tendon_traces(model: &Model, state: &RobotState, shapes: &[LegShape; 3]) -> (
 }
 
 /// The platform's circumradius \[m\] (at least 1 mm): the scale of arrows and ellipsoids.
+/// The platform's coupling points in the world frame at `state` \[m\].
+pub(super) fn platform_corners(model: &Model, state: &RobotState) -> Vec<Vector3<f64>> {
+    let pose = state.pose();
+    model
+        .coupling_points
+        .iter()
+        .map(|c| pose.position + pose.rotation * c)
+        .collect()
+}
+
 fn platform_size(model: &Model) -> f64 {
     model
         .coupling_points

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use plotters::prelude::*;
 
 use super::MM;
-use super::robot::{bounding_box, leg_shapes, tendon_paths};
+use super::robot::{bounding_box, leg_shapes, platform_corners, tendon_paths};
 use crate::error::{PlotError, SolveError};
 use crate::kinetostatics::RobotState;
 use crate::model::Model;
@@ -32,12 +32,7 @@ pub fn configuration_svg(model: &Model, state: &RobotState) -> Result<String, Pl
         message: e.to_string(),
     };
     let shapes = leg_shapes(model, state).map_err(|e: SolveError| draw(&e))?;
-    let pose = state.pose();
-    let platform: Vec<Vector3<f64>> = model
-        .coupling_points
-        .iter()
-        .map(|c| pose.position + pose.rotation * c)
-        .collect();
+    let platform = platform_corners(model, state);
     let backbones: Vec<Vec<Vector3<f64>>> = shapes.iter().map(super::robot::hermite).collect();
     let tendons = tendon_paths(model, state, &shapes);
     let bases: Vec<Vector3<f64>> = (0..3)
