@@ -425,20 +425,35 @@ fn cli_case() -> impl Strategy<Value = Vec<String>> {
                 s(fmt),
             ]
         ),
-        (design.clone(), list(3), list(3), number(), format.clone()).prop_map(
-            move |(d, p, r, tol, fmt)| vec![
-                s("ik"),
-                path_of(d),
-                s("--position"),
-                p,
-                s("--rotvec"),
-                r,
-                s("--tolerance"),
-                tol,
-                s("--format"),
-                s(fmt),
-            ]
-        ),
+        (
+            design.clone(),
+            list(3),
+            list(3),
+            number(),
+            format.clone(),
+            limits(),
+            prop::option::of(list(9)),
+        )
+            .prop_map(move |(d, p, r, tol, fmt, lim, reference)| {
+                let mut args = vec![
+                    s("ik"),
+                    path_of(d),
+                    s("--position"),
+                    p,
+                    s("--rotvec"),
+                    r,
+                    s("--tolerance"),
+                    tol,
+                    s("--format"),
+                    s(fmt),
+                    s("--limits"),
+                    s(lim),
+                ];
+                if let Some(reference) = reference {
+                    args.extend([s("--reference"), reference]);
+                }
+                args
+            }),
         (list(6), number(), format.clone()).prop_map(move |(q, th, fmt)| vec![
             s("analyze"),
             path_of("lilge2022.ron"),
@@ -494,6 +509,11 @@ fn cli_case() -> impl Strategy<Value = Vec<String>> {
     ]
 }
 
+/// `--limits` values: both valid ones and an invalid one.
+fn limits() -> impl Strategy<Value = &'static str> {
+    select(vec!["free", "strict", "loose"])
+}
+
 /// Workspace steps: every invalid kind, and valid ones coarse enough to finish quickly.
 fn workspace_step() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -543,12 +563,14 @@ fn csv_rows(width: usize) -> impl Strategy<Value = String> {
 proptest! {
     #![proptest_config(config(100))]
 
-    /// `trajectory --ik/--fk` over fuzzed CSV rows: exit 0, 1 or 2, no panic, no NaN.
+    /// `trajectory --ik/--fk --limits` over fuzzed CSV rows: exit 0, 1 or 2, no panic, no
+    /// NaN.
     #[test]
     fn trajectory_csv_rows_exit_cleanly(
         ik in any::<bool>(),
         rows in csv_rows(6),
         format in select(vec!["text", "json"]),
+        lim in limits(),
     ) {
         let dir = std::env::temp_dir().join(format!("tdpcr-fuzz-csv-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -561,6 +583,8 @@ proptest! {
             csv.display().to_string(),
             "--format".into(),
             format.into(),
+            "--limits".into(),
+            lim.into(),
         ];
         let o = tdpcr(&args)?;
         check_exit(&args, &o)?;

@@ -75,12 +75,15 @@ pub struct WorkspaceArgs {
 pub struct TrajectoryArgs {
     /// Design file (RON, `Tdpcr(...)`).
     pub design: PathBuf,
-    /// CSV of poses, columns x,y,z,rx,ry,rz [m, rad] (IK; 6-DoF design).
+    /// CSV of poses, columns x,y,z,rx,ry,rz [m, rad] (IK).
     #[arg(long, conflicts_with = "fk", required_unless_present = "fk")]
     pub ik: Option<PathBuf>,
     /// CSV of actuations, columns q1..qn [m] (FK).
     #[arg(long)]
     pub fk: Option<PathBuf>,
+    /// Redundancy resolution of every IK step, as in `ik` (only with --ik).
+    #[command(flatten)]
+    pub redundancy: RedundancyArgs,
     #[command(flatten)]
     pub solve: SolveArgs,
 }
@@ -223,6 +226,11 @@ pub struct RedundancyArgs {
 }
 
 impl RedundancyArgs {
+    /// Whether either flag asks for more than the default (`--limits free`, no reference).
+    pub fn given(&self) -> bool {
+        self.limits != LimitsArg::Free || self.reference.is_some()
+    }
+
     /// Checks the values and sets the solver's redundancy resolution.
     pub fn apply(&self, solver: &mut Solver) -> Result<(), Error> {
         let n = solver.model().n_actuators();

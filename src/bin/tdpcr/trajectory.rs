@@ -1,6 +1,8 @@
 //! `tdpcr trajectory`: a CSV of IK poses or FK actuations solved in order, each step
-//! warm-started from the last ([`tdpcr::trajectory::run_trajectory`]); the CSV reader and
-//! the per-step rows printed as CSV.
+//! warm-started from the last ([`tdpcr::trajectory::run_trajectory`]), the IK steps with
+//! the redundancy resolution of `ik` (`--limits`, `--reference`, mapped by the one
+//! [`crate::args::RedundancyArgs::apply`]); the CSV reader and the per-step rows printed
+//! as CSV.
 
 use std::path::Path;
 
@@ -25,6 +27,16 @@ struct TrajectoryOutput {
 /// Runs `tdpcr trajectory`.
 pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
     let (mut solver, wrench, _) = prepare(&args.design, &args.solve)?;
+    if args.fk.is_some() && args.redundancy.given() {
+        let mut v = Violations::default();
+        v.push(
+            "--limits/--reference",
+            "given with --fk",
+            "only with --ik (FK has no redundancy to resolve)",
+        );
+        return Err(Error::Input(v));
+    }
+    args.redundancy.apply(&mut solver)?;
     let targets = match (&args.ik, &args.fk) {
         (Some(path), _) => {
             let rows = read_csv(path, 6, "x,y,z,rx,ry,rz")?;
