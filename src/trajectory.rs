@@ -78,7 +78,18 @@ pub fn run_trajectory(
     targets: &Targets,
     extra: &Wrench,
 ) -> (Vec<StepResult>, Stats) {
-    let mut state: Option<RobotState> = None;
+    run_trajectory_from(solver, targets, extra, None)
+}
+
+/// As [`run_trajectory`], the first step warm-started from `init` if given (e.g. the
+/// state a previous run or a single solve ended at).
+pub fn run_trajectory_from(
+    solver: &mut Solver,
+    targets: &Targets,
+    extra: &Wrench,
+    init: Option<RobotState>,
+) -> (Vec<StepResult>, Stats) {
+    let mut state: Option<RobotState> = init;
     let mut steps = Vec::new();
     let count = match targets {
         Targets::Poses(p) => p.len(),

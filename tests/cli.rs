@@ -990,6 +990,35 @@ mod trajectory_limits {
     }
 
     #[test]
+    fn init_warm_starts_the_first_step() {
+        let dir = scratch("init");
+        let design = design_path("lilge2022.ron").display().to_string();
+        // The state at the first pose's neighbour, from a single IK solve.
+        let init = dir.join("init.json");
+        let o = tdpcr(&["ik", &design, "--position", "0.002,0,0", "--format", "json"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::write(&init, &o.stdout).unwrap();
+        let csv = dir.join("poses.csv");
+        let targets = [[0.003, 0.0, 0.0], [0.004, 0.0, 0.0]];
+        write_poses(&csv, &targets);
+        let first_iterations = |o: &Output| {
+            assert!(o.status.success(), "{}", stderr(o));
+            let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+            v["steps"][0]["iterations"].as_u64().unwrap()
+        };
+        let cold = run(&design, &csv, &[]);
+        let warm = run(&design, &csv, &["--init", init.to_str().unwrap()]);
+        assert_reached(&converged_steps(&warm), &targets);
+        let (c, w) = (first_iterations(&cold), first_iterations(&warm));
+        assert!(w < c, "first step: {w} iterations from --init, {c} cold");
+        // A state of another design is refused before any step, naming it.
+        let o = run(&redundant(), &csv, &["--init", init.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+        assert!(o.stdout.is_empty());
+        assert!(stderr(&o).contains("init.q = 6 values"), "{}", stderr(&o));
+    }
+
+    #[test]
     fn strict_steps_near_home_stay_within_the_limits_and_reach_every_pose() {
         let dir = scratch("home");
         let csv = dir.join("poses.csv");

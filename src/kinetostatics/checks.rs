@@ -81,7 +81,7 @@ fn check_wrench(v: &mut Violations, w: &Wrench) {
     }
 }
 
-fn check_init(solver: &Solver, v: &mut Violations, init: Option<&RobotState>) {
+pub(super) fn check_init(solver: &Solver, v: &mut Violations, init: Option<&RobotState>) {
     if let Some(s) = init {
         if s.q.len() != solver.model.n_actuators() {
             v.push(

@@ -49,7 +49,9 @@ use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonScratch, NewtonSettings};
 use crate::rod::Wrench;
 use crate::rod::tendon::TendonUnknown;
-use checks::{actuation_violations, analysis_violations, checked_wrench, pose_violations};
+use checks::{
+    actuation_violations, analysis_violations, check_init, checked_wrench, pose_violations,
+};
 use predictor::LastSolve;
 use target::{Target, solve_target};
 
@@ -272,6 +274,21 @@ impl Solver {
             guess,
         );
         finish(result, start, extra, &self.model, None)
+    }
+
+    /// Checks that a warm start (e.g. read from a file before a run of solves) fits this
+    /// solver's design: its sizes and finite values.
+    ///
+    /// # Errors
+    /// [`Error::Input`] naming `init.q`, `init.y_u` or `init`.
+    pub fn check_warm_start(&self, state: &RobotState) -> Result<(), Error> {
+        let mut v = crate::error::Violations::default();
+        check_init(self, &mut v, Some(state));
+        if v.0.is_empty() {
+            Ok(())
+        } else {
+            Err(Error::Input(v))
+        }
     }
 
     /// The straight home guess for platform `pose` and actuation `q`.

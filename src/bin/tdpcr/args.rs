@@ -154,7 +154,8 @@ pub struct SolveArgs {
     /// to the platform's weight.
     #[arg(long, value_parser = parse_list, allow_hyphen_values = true)]
     pub wrench: Option<Values>,
-    /// Warm start: a JSON file with a `state` (the output of fk/ik) or the state itself.
+    /// Warm start: a JSON file with a `state` (the output of fk/ik) or the state itself
+    /// (`trajectory`: of its first step).
     #[arg(long)]
     pub init: Option<PathBuf>,
     /// Jacobian used by Newton.

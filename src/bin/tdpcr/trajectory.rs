@@ -1,5 +1,6 @@
 //! `tdpcr trajectory`: a CSV of IK poses or FK actuations solved in order, each step
-//! warm-started from the last ([`tdpcr::trajectory::run_trajectory`]), the IK steps with
+//! warm-started from the last (the first from `--init` if given, else cold;
+//! [`tdpcr::trajectory::run_trajectory_from`]), the IK steps with
 //! the redundancy resolution of `ik` (`--limits`, `--reference`, mapped by the one
 //! [`crate::args::RedundancyArgs::apply`]); the CSV reader and the per-step rows printed
 //! as CSV.
@@ -12,7 +13,7 @@ use serde::Serialize;
 use tdpcr::SolveError;
 use tdpcr::error::{Error, Violations};
 use tdpcr::model::Pose;
-use tdpcr::trajectory::{Stats, StepResult, Targets, run_trajectory};
+use tdpcr::trajectory::{Stats, StepResult, Targets, run_trajectory_from};
 
 use crate::args::TrajectoryArgs;
 use crate::output;
@@ -26,7 +27,7 @@ struct TrajectoryOutput {
 
 /// Runs `tdpcr trajectory`.
 pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
-    let (mut solver, wrench, _) = prepare(&args.design, &args.solve)?;
+    let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
     if args.fk.is_some() && args.redundancy.given() {
         let mut v = Violations::default();
         v.push(
@@ -37,6 +38,9 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
         return Err(Error::Input(v));
     }
     args.redundancy.apply(&mut solver)?;
+    if let Some(state) = &init {
+        solver.check_warm_start(state)?;
+    }
     let targets = match (&args.ik, &args.fk) {
         (Some(path), _) => {
             let rows = read_csv(path, 6, "x,y,z,rx,ry,rz")?;
@@ -49,7 +53,7 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
         }
         (None, None) => unreachable!("clap requires --ik or --fk"),
     };
-    let (steps, stats) = run_trajectory(&mut solver, &targets, &wrench);
+    let (steps, stats) = run_trajectory_from(&mut solver, &targets, &wrench, init);
     let out = TrajectoryOutput { steps, stats };
     output::print(args.solve.format, &out, print_rows);
     if let Some(first_step) = out.stats.first_failed_step {
