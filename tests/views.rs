@@ -231,3 +231,29 @@ fn analyze_plot_also_draws_the_configuration_in_three_views() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn fk_and_ik_plot_write_the_configuration_in_three_views() {
+    for (kind, target, value) in [
+        ("fk", "--q", "0.004,0.02,-0.003,-0.01,0.002,0.03"),
+        ("ik", "--position", "0.01,-0.005,0.02"),
+    ] {
+        // A directory that does not exist yet: created.
+        let dir = temp_dir(&format!("sketch-{kind}")).join("figures");
+        let o = tdpcr(&[
+            kind,
+            &design(),
+            target,
+            value,
+            "--plot",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let svg = std::fs::read_to_string(dir.join("configuration.svg")).unwrap();
+        assert!(svg.starts_with("<svg"), "{kind}");
+        for view in ["top (xy)", "front (xz)", "side (yz)"] {
+            assert!(svg.contains(view), "{kind}: {view}");
+        }
+        std::fs::remove_dir_all(dir.parent().unwrap()).ok();
+    }
+}

@@ -179,6 +179,10 @@ pub struct FkArgs {
     /// HTML file, opens offline).
     #[arg(long, value_name = "FILE.html")]
     pub view: Option<PathBuf>,
+    /// Also write the solved configuration in three orthographic views (top, front, side;
+    /// one mm scale) as DIR/configuration.svg, for papers (the directory is created).
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
     #[command(flatten)]
     pub solve: SolveArgs,
 }
@@ -197,6 +201,10 @@ pub struct IkArgs {
     /// HTML file, opens offline).
     #[arg(long, value_name = "FILE.html")]
     pub view: Option<PathBuf>,
+    /// Also write the solved configuration in three orthographic views (top, front, side;
+    /// one mm scale) as DIR/configuration.svg, for papers (the directory is created).
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
     #[command(flatten)]
     pub redundancy: RedundancyArgs,
     #[command(flatten)]

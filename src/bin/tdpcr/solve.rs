@@ -194,6 +194,9 @@ pub fn run_fk(args: &FkArgs) -> Result<(), Error> {
     if let (Ok(sol), Some(path)) = (&result, &args.view) {
         crate::view::write_configuration(path, "fk", &solver, sol, None)?;
     }
+    if let (Ok(sol), Some(dir)) = (&result, &args.plot) {
+        crate::view::write_sketch(dir, &solver, sol)?;
+    }
     report(&solver, result, args.solve.format)
 }
 
@@ -205,6 +208,9 @@ pub fn run_ik(args: &IkArgs) -> Result<(), Error> {
     let result = solver.solve_ik(&pose, &wrench, init.as_ref());
     if let (Ok(sol), Some(path)) = (&result, &args.view) {
         crate::view::write_configuration(path, "ik", &solver, sol, None)?;
+    }
+    if let (Ok(sol), Some(dir)) = (&result, &args.plot) {
+        crate::view::write_sketch(dir, &solver, sol)?;
     }
     report(&solver, result, args.solve.format)
 }

@@ -75,6 +75,10 @@ pub fn write_workspace(dir: &Path, design: &Tdpcr, map: &WorkspaceMap) -> Result
 /// Writes `configuration.svg` (three orthographic views of `sol`) into `dir`, which
 /// exists (the ellipsoid plots are written first), and returns its path.
 pub fn write_sketch(dir: &Path, solver: &Solver, sol: &Solution) -> Result<PathBuf, Error> {
+    std::fs::create_dir_all(dir).map_err(|source| tdpcr::error::PlotError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let svg = tdpcr::view::sketch::configuration_svg(solver.model(), &sol.state)?;
     let path = dir.join("configuration.svg");
     tdpcr::output::write_atomically(&path, svg.as_bytes())?;
