@@ -74,6 +74,8 @@ pub fn workspace_figure(
         s.volume.reachable * 1e3
     );
     let mut figure = Figure::new(title);
+    // The colour bar stands left of the scene, not over its axis labels.
+    figure.inset_left = 0.1;
     let scene = figure.add_scene("workspace");
     let step = map.settings.step;
     let reachable: Vec<&WorkspacePoint> = map.points.iter().filter(|p| p.reachable()).collect();

@@ -21,6 +21,8 @@ pub struct Figure {
     pub scenes: Vec<(String, String)>,
     /// plotly `updatemenus` (dropdowns), empty if none.
     pub menus: Vec<Value>,
+    /// Fraction of the page's width left of the scenes (room for a colour bar; 0 if none).
+    pub inset_left: f64,
 }
 
 impl Figure {
@@ -31,6 +33,7 @@ impl Figure {
             traces: Vec::new(),
             scenes: Vec::new(),
             menus: Vec::new(),
+            inset_left: 0.0,
         }
     }
 
@@ -57,7 +60,11 @@ impl Figure {
         let n = self.scenes.len().max(1) as f64;
         let mut annotations = Vec::new();
         for (k, (id, title)) in self.scenes.iter().enumerate() {
-            let domain = [k as f64 / n, (k + 1) as f64 / n];
+            let width = 1.0 - self.inset_left;
+            let domain = [
+                self.inset_left + width * k as f64 / n,
+                self.inset_left + width * (k + 1) as f64 / n,
+            ];
             let axis = |name: &str| json!({"title": {"text": format!("{name} [mm]")}});
             layout[id] = json!({
                 "domain": {"x": domain, "y": [0.0, 1.0]},
