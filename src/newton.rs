@@ -800,9 +800,16 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     fill_test_units(&mut units, |c| system.row_scales(c));
     let mut r = DVector::zeros(m);
     let mut trial = DVector::zeros(m);
+    // Buffers of the line search: the trial point and the weighted residual of the merit.
+    let mut x_t = x.clone();
+    let mut weighted = DVector::zeros(m);
     let mut report = NewtonReport::none();
     let mut first_norm = f64::NAN;
-    let merit = |r: &DVector<f64>| r.component_mul(&weights).norm_squared();
+    let mut merit = |r: &DVector<f64>| {
+        weighted.copy_from(r);
+        weighted.component_mul_assign(&weights);
+        weighted.norm_squared()
+    };
     loop {
         system.residual_and_jacobian(x, &mut r)?;
         report.residual_evaluations += 1;
@@ -823,12 +830,14 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             if alpha < 1e-6 {
                 break false;
             }
-            let x_t: Vec<f64> = x.iter().zip(&step).map(|(x, d)| x + alpha * d).collect();
+            for ((t, x), d) in x_t.iter_mut().zip(x.iter()).zip(&step) {
+                *t = x + alpha * d;
+            }
             report.residual_evaluations += 1;
             let ok =
                 system.residual(&x_t, &mut trial).is_ok() && trial.iter().all(|v| v.is_finite());
             if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
-                *x = x_t;
+                std::mem::swap(x, &mut x_t);
                 break true;
             }
             alpha *= 0.5;
