@@ -21,8 +21,8 @@ use crate::model::{Model, Pose};
 use crate::rod::rhs::hat;
 use crate::rod::tendon::TendonUnknown;
 use crate::rod::{
-    LegEnd, LegScratch, LegSensitivities, LegStart, Wrench, integrate_leg,
-    integrate_leg_with_sensitivities,
+    LegEnd, LegScratch, LegSensitivities, LegStart, LegsScratch, Wrench, integrate_leg,
+    integrate_legs,
 };
 
 /// Where the residual is evaluated: platform pose, actuation, external wrench (world
@@ -79,6 +79,9 @@ pub enum FiniteDifference {
 /// Buffers for residual and Jacobian evaluations of one model.
 #[derive(Debug, Clone)]
 pub struct BoundaryScratch {
+    /// The three legs together (residual and exact Jacobian).
+    group: Box<LegsScratch>,
+    /// One leg at a time (the finite-difference baseline re-integrates one leg).
     legs: Box<[LegScratch; 3]>,
     sens: Box<[LegSensitivities; 3]>,
     ends: [LegEnd; 3],
@@ -92,6 +95,7 @@ impl BoundaryScratch {
     pub fn new(model: &Model) -> Self {
         let nd = 6 + model.n_tendons();
         Self {
+            group: Box::new(LegsScratch::new()),
             legs: Box::new([LegScratch::new(), LegScratch::new(), LegScratch::new()]),
             sens: Box::new([
                 LegSensitivities::new(nd),
@@ -202,14 +206,8 @@ pub fn boundary_residual(
 ) -> Result<(), SolveError> {
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
-        integrate_leg(
-            &model.leg,
-            &sc.starts[i],
-            &mut sc.legs[i],
-            &mut sc.ends[i],
-            None,
-        )?;
     }
+    integrate_legs(&model.leg, &sc.starts, &mut sc.group, &mut sc.ends, None)?;
     assemble_residual(model, p, &sc.ends, r);
     Ok(())
 }
@@ -231,15 +229,9 @@ pub fn boundary_derivatives(
     let lc = model.coupling_offset;
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
-        integrate_leg_with_sensitivities(
-            &model.leg,
-            &sc.starts[i],
-            &mut sc.legs[i],
-            &mut sc.ends[i],
-            &mut sc.sens[i],
-            None,
-        )?;
     }
+    let sens = Some(&mut sc.sens[..]);
+    integrate_legs(&model.leg, &sc.starts, &mut sc.group, &mut sc.ends, sens)?;
     assemble_residual(model, p, &sc.ends, r);
     jac.b_x.fill(0.0);
     jac.b_q.fill(0.0);

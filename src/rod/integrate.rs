@@ -11,7 +11,9 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
+use crate::rod::lanes::{F64x4, Real, cross, dot, mat_vec};
 use crate::rod::leg_model::LegModel;
+pub use crate::rod::rhs::MAX_LEGS;
 use crate::rod::rhs::{RkEmit, RodState, Stage};
 pub use crate::rod::tangents::MAX_DIRECTIONS;
 use crate::rod::tangents::Tangents;
@@ -97,10 +99,11 @@ impl LegShape {
         }
     }
 
-    fn push(&mut self, s: f64, y: &RodState) {
+    /// Appends the frame of lane 0 (the one leg of a shape-recording integration).
+    fn push<T: Real>(&mut self, s: f64, y: &RodState<T>) {
         self.arcs.push(s);
-        self.positions.push(y.p);
-        self.rotations.push(y.r);
+        self.positions.push(y.p.map(|e| e.lane(0)));
+        self.rotations.push(y.r.map(|e| e.lane(0)));
     }
 
     fn clear(&mut self) {
@@ -110,32 +113,19 @@ impl LegShape {
     }
 }
 
-/// Buffers for one leg integration; build once, reuse for every call.
+/// The tangent buffers of one leg: at the start of the step, the step's running sum, and
+/// the inputs of the current and the next RK stage (two buffers, swapped after each stage).
 #[derive(Debug, Clone)]
-pub struct LegScratch {
-    stage: Stage,
-    y: RodState,
-    y_next: RodState,
-    y_stage: RodState,
-    k: RodState,
-    /// Tangents at the start of the step, the step's running sum, and the inputs of the
-    /// current and the next RK stage (two buffers, swapped after each stage).
+struct LegTangents {
     dy: Box<Tangents>,
     dy_next: Box<Tangents>,
     dy_stage: Box<Tangents>,
     dy_stage_next: Box<Tangents>,
 }
 
-impl LegScratch {
-    /// Allocates the buffers (the only allocation of an integration).
-    pub fn new() -> Self {
-        let z = RodState::zeros();
+impl LegTangents {
+    fn new() -> Self {
         Self {
-            stage: Stage::new(),
-            y: z,
-            y_next: z,
-            y_stage: z,
-            k: z,
             dy: Box::new(Tangents::zeros()),
             dy_next: Box::new(Tangents::zeros()),
             dy_stage: Box::new(Tangents::zeros()),
@@ -144,7 +134,65 @@ impl LegScratch {
     }
 }
 
+/// Buffers of one integration of up to `T::LANES` legs, one per lane.
+#[derive(Debug, Clone)]
+struct Buffers<T: Real> {
+    stage: Stage<T>,
+    y: RodState<T>,
+    y_next: RodState<T>,
+    y_stage: RodState<T>,
+    k: RodState<T>,
+    /// Tendon tensions τ_k \[N\] of each lane.
+    tau: [T; MAX_TENDONS],
+    /// Tangents of each lane's leg.
+    tangents: Vec<LegTangents>,
+}
+
+impl<T: Real> Buffers<T> {
+    fn new() -> Self {
+        let z = RodState::zeros();
+        Self {
+            stage: Stage::new(),
+            y: z,
+            y_next: z,
+            y_stage: z,
+            k: z,
+            tau: [T::zero(); MAX_TENDONS],
+            tangents: (0..T::LANES).map(|_| LegTangents::new()).collect(),
+        }
+    }
+}
+
+/// Buffers for one leg integration; build once, reuse for every call.
+#[derive(Debug, Clone)]
+pub struct LegScratch(Buffers<f64>);
+
+impl LegScratch {
+    /// Allocates the buffers (the only allocation of an integration).
+    pub fn new() -> Self {
+        Self(Buffers::new())
+    }
+}
+
 impl Default for LegScratch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Buffers for integrating up to [`MAX_LEGS`] legs of one model together
+/// ([`integrate_legs`]); build once, reuse for every call.
+#[derive(Debug, Clone)]
+pub struct LegsScratch(Buffers<F64x4>);
+
+impl LegsScratch {
+    /// Allocates the buffers (the only allocation of an integration).
+    pub fn new() -> Self {
+        Self(Buffers::new())
+    }
+}
+
+impl Default for LegsScratch {
     fn default() -> Self {
         Self::new()
     }
@@ -175,7 +223,8 @@ pub fn integrate_leg(
     end: &mut LegEnd,
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
-    integrate(model, start, scratch, end, None, shape)
+    let (starts, ends) = (std::slice::from_ref(start), std::slice::from_mut(end));
+    integrate(model, starts, &mut scratch.0, ends, None, shape)
 }
 
 /// As [`integrate_leg`], and also the exact derivatives of the tip state with respect
@@ -192,189 +241,261 @@ pub fn integrate_leg_with_sensitivities(
     sens: &mut LegSensitivities,
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
+    check_directions(model, std::slice::from_ref(sens));
+    let (starts, ends) = (std::slice::from_ref(start), std::slice::from_mut(end));
+    let sens = Some(std::slice::from_mut(sens));
+    integrate(model, starts, &mut scratch.0, ends, sens, shape)
+}
+
+/// Integrates several legs of one model (up to [`MAX_LEGS`], e.g. the three legs of a
+/// robot) together, one per SIMD lane: the same tips and sensitivities, bitwise, as
+/// [`integrate_leg`] / [`integrate_leg_with_sensitivities`] leg by leg, in about the time
+/// of one leg's primal kernel (module [`lanes`](super::lanes)). With `sens`, every leg
+/// gets the same number of directions.
+///
+/// # Errors
+/// [`SolveError::NonFinite`] if any leg's state blows up.
+///
+/// # Panics
+/// If `starts`, `ends` (and `sens`) differ in length or hold more than [`MAX_LEGS`]
+/// legs, or the legs' direction counts differ or exceed 6 + n_t (programming errors).
+#[track_caller]
+pub fn integrate_legs(
+    model: &LegModel,
+    starts: &[LegStart],
+    scratch: &mut LegsScratch,
+    ends: &mut [LegEnd],
+    sens: Option<&mut [LegSensitivities]>,
+) -> Result<(), SolveError> {
     assert!(
-        sens.directions <= 6 + model.n_tendons,
-        "{} sensitivity directions requested, the leg has {}",
-        sens.directions,
+        (1..=MAX_LEGS).contains(&starts.len()) && ends.len() == starts.len(),
+        "integrate_legs: {} starts, {} ends (1 to {MAX_LEGS} legs)",
+        starts.len(),
+        ends.len()
+    );
+    if let Some(sens) = sens.as_deref() {
+        assert_eq!(sens.len(), starts.len(), "integrate_legs: one sensitivity per leg");
+        check_directions(model, sens);
+    }
+    integrate(model, starts, &mut scratch.0, ends, sens, None)
+}
+
+#[track_caller]
+fn check_directions(model: &LegModel, sens: &[LegSensitivities]) {
+    let nd = sens[0].directions;
+    assert!(
+        nd <= 6 + model.n_tendons && sens.iter().all(|s| s.directions == nd),
+        "{nd} sensitivity directions requested, the leg has {}",
         6 + model.n_tendons
     );
-    integrate(model, start, scratch, end, Some(sens), shape)
 }
 
 /// Runs the integration, with AVX2 code where the CPU has it (detected at run time; the
 /// same operations in the same order, so the results are bitwise identical either way).
-fn integrate(
+fn integrate<T: Real>(
     model: &LegModel,
-    start: &LegStart,
-    sc: &mut LegScratch,
-    end: &mut LegEnd,
-    sens: Option<&mut LegSensitivities>,
+    starts: &[LegStart],
+    buf: &mut Buffers<T>,
+    ends: &mut [LegEnd],
+    sens: Option<&mut [LegSensitivities]>,
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked just above.
-        return unsafe { integrate_avx2(model, start, sc, end, sens, shape) };
+        return unsafe { integrate_avx2(model, starts, buf, ends, sens, shape) };
     }
-    integrate_dispatch(model, start, sc, end, sens, shape)
+    integrate_dispatch(model, starts, buf, ends, sens, shape)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn integrate_avx2(
+fn integrate_avx2<T: Real>(
     model: &LegModel,
-    start: &LegStart,
-    sc: &mut LegScratch,
-    end: &mut LegEnd,
-    sens: Option<&mut LegSensitivities>,
+    starts: &[LegStart],
+    buf: &mut Buffers<T>,
+    ends: &mut [LegEnd],
+    sens: Option<&mut [LegSensitivities]>,
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
-    integrate_dispatch(model, start, sc, end, sens, shape)
+    integrate_dispatch(model, starts, buf, ends, sens, shape)
 }
 
 /// Picks the lane count N ≥ the directions used (0: primal only): 8 covers a leg with
 /// one tendon pair, 10 two pairs.
 #[inline(always)]
-fn integrate_dispatch(
+fn integrate_dispatch<T: Real>(
     model: &LegModel,
-    start: &LegStart,
-    sc: &mut LegScratch,
-    end: &mut LegEnd,
-    sens: Option<&mut LegSensitivities>,
+    starts: &[LegStart],
+    buf: &mut Buffers<T>,
+    ends: &mut [LegEnd],
+    sens: Option<&mut [LegSensitivities]>,
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
-    match sens.as_ref().map_or(0, |s| s.directions) {
-        0 => integrate_lanes::<0>(model, start, sc, end, None, shape),
-        1..=8 => integrate_lanes::<8>(model, start, sc, end, sens, shape),
-        9..=10 => integrate_lanes::<10>(model, start, sc, end, sens, shape),
-        _ => integrate_lanes::<MAX_DIRECTIONS>(model, start, sc, end, sens, shape),
+    match sens.as_ref().map_or(0, |s| s[0].directions) {
+        0 => integrate_lanes::<0, T>(model, starts, buf, ends, None, shape),
+        1..=8 => integrate_lanes::<8, T>(model, starts, buf, ends, sens, shape),
+        9..=10 => integrate_lanes::<10, T>(model, starts, buf, ends, sens, shape),
+        _ => integrate_lanes::<MAX_DIRECTIONS, T>(model, starts, buf, ends, sens, shape),
     }
 }
 
+/// Lane `i` of a vector.
 #[inline(always)]
-fn integrate_lanes<const N: usize>(
+fn lane3<T: Real>(x: &Vector3<T>, i: usize) -> Vector3<f64> {
+    x.map(|e| e.lane(i))
+}
+
+#[inline(always)]
+fn integrate_lanes<const N: usize, T: Real>(
     model: &LegModel,
-    start: &LegStart,
-    sc: &mut LegScratch,
-    end: &mut LegEnd,
-    sens: Option<&mut LegSensitivities>,
+    starts: &[LegStart],
+    buf: &mut Buffers<T>,
+    ends: &mut [LegEnd],
+    sens: Option<&mut [LegSensitivities]>,
     mut shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
-    let nd = sens.as_ref().map_or(0, |s| s.directions);
+    let legs = starts.len();
+    let nd = sens.as_ref().map_or(0, |s| s[0].directions);
     let nt = model.n_tendons;
-    let tau = &start.tensions;
-    sc.y = RodState {
-        p: start.base.position,
-        r: start.base.rotation,
-        v: start.v0,
-        u: start.u0,
-        s: [0.0; MAX_TENDONS],
-    };
+    // Leg l in lane l; lanes beyond the legs repeat leg 0 (valid data, never read).
+    let mut y = RodState::<T>::zeros();
+    for lane in 0..T::LANES {
+        let start = &starts[if lane < legs { lane } else { 0 }];
+        let frame = &start.base;
+        for i in 0..3 {
+            y.p[i].set_lane(lane, frame.position[i]);
+            y.v[i].set_lane(lane, start.v0[i]);
+            y.u[i].set_lane(lane, start.u0[i]);
+        }
+        for (e, x) in y.r.iter_mut().zip(frame.rotation.iter()) {
+            e.set_lane(lane, *x);
+        }
+        for (tau, x) in buf.tau.iter_mut().zip(start.tensions) {
+            tau.set_lane(lane, x);
+        }
+    }
+    buf.y = y;
     if N > 0 {
-        sc.dy.set_initial::<N>(nt);
+        for tg in &mut buf.tangents[..legs] {
+            tg.dy.set_initial::<N>(nt);
+        }
     }
     if let Some(shape) = shape.as_deref_mut() {
         shape.clear();
-        shape.push(0.0, &sc.y);
+        shape.push(0.0, &buf.y);
     }
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
         for _ in 0..iv.steps {
-            rk4_step::<N>(model, sc, tau, iv.active, h, nd)?;
+            rk4_step::<N, T>(model, buf, iv.active, h, nd, legs)?;
         }
         if iv.terminating != 0 {
-            apply_tendon_ends::<N>(model, sc, tau, iv.terminating, nd);
+            apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
         }
         if let (Some(shape), Some(_)) = (shape.as_deref_mut(), iv.disk) {
-            shape.push(iv.end, &sc.y);
+            shape.push(iv.end, &buf.y);
         }
     }
-    let y = &sc.y;
-    let n_body = model.k_se.component_mul(&(y.v - Vector3::z()));
-    let m_body = model.k_bt.component_mul(&y.u);
-    *end = LegEnd {
-        p: y.p,
-        r: y.r,
-        n: y.r * n_body,
-        m: y.r * m_body,
-        lengths: y.s,
-    };
-    if !end
-        .p
-        .iter()
-        .chain(end.n.iter())
-        .chain(end.m.iter())
-        .all(|x| x.is_finite())
-    {
-        return Err(SolveError::NonFinite {
-            stage: "leg tip state",
-        });
+    let y = &buf.y;
+    let (k_se, k_bt) = (model.k_se.map(T::splat), model.k_bt.map(T::splat));
+    let n_body = k_se.component_mul(&(y.v - Vector3::z()));
+    let m_body = k_bt.component_mul(&y.u);
+    let (n_world, m_world) = (mat_vec(&y.r, &n_body), mat_vec(&y.r, &m_body));
+    for (leg, end) in ends.iter_mut().enumerate() {
+        *end = LegEnd {
+            p: lane3(&y.p, leg),
+            r: y.r.map(|e| e.lane(leg)),
+            n: lane3(&n_world, leg),
+            m: lane3(&m_world, leg),
+            lengths: y.s.map(|e| e.lane(leg)),
+        };
+        if !end
+            .p
+            .iter()
+            .chain(end.n.iter())
+            .chain(end.m.iter())
+            .all(|x| x.is_finite())
+        {
+            return Err(SolveError::NonFinite {
+                stage: "leg tip state",
+            });
+        }
     }
     if let Some(sens) = sens {
-        let dy = &sc.dy;
-        for (j, d) in sens.d[..nd].iter_mut().enumerate() {
-            let dr = Matrix3::from_fn(|row, col| dy.r[3 * col + row][j]);
-            let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
-            let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
-            let mut lengths = [0.0; MAX_TENDONS];
-            for k in 0..nt {
-                lengths[k] = dy.s[k][j];
+        for (leg, sens) in sens.iter_mut().enumerate() {
+            let dy = &buf.tangents[leg].dy;
+            let rot = y.r.map(|e| e.lane(leg));
+            let (n_body, m_body) = (lane3(&n_body, leg), lane3(&m_body, leg));
+            for (j, d) in sens.d[..nd].iter_mut().enumerate() {
+                let dr = Matrix3::from_fn(|row, col| dy.r[3 * col + row][j]);
+                let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
+                let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+                let mut lengths = [0.0; MAX_TENDONS];
+                for k in 0..nt {
+                    lengths[k] = dy.s[k][j];
+                }
+                *d = LegEnd {
+                    p: Vector3::new(dy.p[0][j], dy.p[1][j], dy.p[2][j]),
+                    r: dr,
+                    n: dr * n_body + rot * model.k_se.component_mul(&dv),
+                    m: dr * m_body + rot * model.k_bt.component_mul(&du),
+                    lengths,
+                };
             }
-            *d = LegEnd {
-                p: Vector3::new(dy.p[0][j], dy.p[1][j], dy.p[2][j]),
-                r: dr,
-                n: dr * n_body + y.r * model.k_se.component_mul(&dv),
-                m: dr * m_body + y.r * model.k_bt.component_mul(&du),
-                lengths,
-            };
         }
     }
     Ok(())
 }
 
-/// One classical RK4 step of size `h` for the state and the `N` tangent lanes.
-/// The next state accumulates y + h Σ b_i k_i stage by stage; intermediate stages carry
-/// only R, v, u (p and s do not feed back).
+/// One classical RK4 step of size `h` for the state and, for each of the first `legs`
+/// lanes, its `N` tangent lanes. The next state accumulates y + h Σ b_i k_i stage by
+/// stage; intermediate stages carry only R, v, u (p and s do not feed back).
 #[inline(always)]
-fn rk4_step<const N: usize>(
+fn rk4_step<const N: usize, T: Real>(
     model: &LegModel,
-    sc: &mut LegScratch,
-    tau: &[f64; MAX_TENDONS],
+    buf: &mut Buffers<T>,
     active: u32,
     h: f64,
     nd: usize,
+    legs: usize,
 ) -> Result<(), SolveError> {
     let nt = model.n_tendons;
     // (weight b_i, offset c_(i+1) of the next stage)
     const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
-        let input = if i == 0 { &sc.y } else { &sc.y_stage };
-        sc.stage.eval(model, input, tau, active, &mut sc.k, N > 0)?;
+        let input = if i == 0 { &buf.y } else { &buf.y_stage };
+        buf.stage.eval(model, input, &buf.tau, active, &mut buf.k, N > 0)?;
         let b = weight * h / 6.0;
         if i == 0 {
-            sc.y_next = sc.y;
+            buf.y_next.set_sum(&buf.y, T::splat(b), &buf.k, nt);
+        } else {
+            buf.y_next.axpy(T::splat(b), &buf.k, nt);
         }
-        sc.y_next.axpy(b, &sc.k, nt);
         if i < 3 {
-            sc.y_stage.set_stage(&sc.y, next * h, &sc.k);
+            buf.y_stage.set_stage(&buf.y, T::splat(next * h), &buf.k);
         }
         if N > 0 {
-            sc.stage.linearize(model, nd);
-            let d_input = if i == 0 { &*sc.dy } else { &*sc.dy_stage };
-            let mut emit = RkEmit {
-                base: &sc.dy,
-                sum: &mut sc.dy_next,
-                weight: b,
-                first: i == 0,
-                next: (i < 3).then_some((&mut *sc.dy_stage_next, next * h)),
-            };
-            sc.stage.tangents::<N>(model, d_input, &mut emit);
-            std::mem::swap(&mut sc.dy_stage, &mut sc.dy_stage_next);
+            buf.stage.linearize(model, nd);
+            for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
+                let d_input = if i == 0 { &*tg.dy } else { &*tg.dy_stage };
+                let mut emit = RkEmit {
+                    base: &tg.dy,
+                    sum: &mut tg.dy_next,
+                    weight: b,
+                    first: i == 0,
+                    next: (i < 3).then_some((&mut *tg.dy_stage_next, next * h)),
+                };
+                buf.stage.tangents::<N>(leg, model, d_input, &mut emit);
+                std::mem::swap(&mut tg.dy_stage, &mut tg.dy_stage_next);
+            }
         }
     }
-    std::mem::swap(&mut sc.y, &mut sc.y_next);
+    std::mem::swap(&mut buf.y, &mut buf.y_next);
     if N > 0 {
-        std::mem::swap(&mut sc.dy, &mut sc.dy_next);
+        for tg in &mut buf.tangents[..legs] {
+            std::mem::swap(&mut tg.dy, &mut tg.dy_next);
+        }
     }
     Ok(())
 }
@@ -382,17 +503,19 @@ fn rk4_step<const N: usize>(
 /// The strain jumps where tendons end (MODEL.md §2): n⁺ = n⁻ + τ R t, m⁺ = m⁻ + τ R (r × t),
 /// with every t taken before the jumps; and their tangents.
 #[inline(always)]
-fn apply_tendon_ends<const N: usize>(
+fn apply_tendon_ends<const N: usize, T: Real>(
     model: &LegModel,
-    sc: &mut LegScratch,
-    tau: &[f64; MAX_TENDONS],
+    buf: &mut Buffers<T>,
     ending: u32,
     nd: usize,
+    legs: usize,
 ) {
-    let y = sc.y;
+    let y = buf.y;
     // Pre-jump tangents (dy_stage is free between steps).
     if N > 0 {
-        sc.dy_stage.set_stage::<N>(&sc.dy, 0.0, &sc.dy);
+        for tg in &mut buf.tangents[..legs] {
+            tg.dy_stage.set_stage::<N>(&tg.dy, 0.0, &tg.dy);
+        }
     }
     let inv_se = model.k_se.map(|x| 1.0 / x);
     let inv_bt = model.k_bt.map(|x| 1.0 / x);
@@ -401,31 +524,36 @@ fn apply_tendon_ends<const N: usize>(
             continue;
         }
         let r_k = &model.tendon_offsets[k];
-        let w = y.v + y.u.cross(r_k);
-        let len = w.norm();
+        let w = y.v + cross(&y.u, &r_k.map(T::splat));
+        let len = dot(&w, &w).sqrt();
         let t = w / len;
-        let rt = r_k.cross(&t);
-        sc.y.v += inv_se.component_mul(&t) * tau[k];
-        sc.y.u += inv_bt.component_mul(&rt) * tau[k];
-        let (pre, dy) = (&sc.dy_stage, &mut sc.dy);
-        for j in 0..N {
-            let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
-            let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
-            let dw = dv + du.cross(r_k);
-            let dforce = (dw - t * t.dot(&dw)) * (tau[k] / len);
-            let jump_v = inv_se.component_mul(&dforce);
-            let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
-            for c in 0..3 {
-                dy.v[c][j] += jump_v[c];
-                dy.u[c][j] += jump_u[c];
+        let rt = cross(&r_k.map(T::splat), &t);
+        let tau = buf.tau[k];
+        buf.y.v += inv_se.map(T::splat).component_mul(&t) * tau;
+        buf.y.u += inv_bt.map(T::splat).component_mul(&rt) * tau;
+        for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
+            let (t, rt) = (lane3(&t, leg), lane3(&rt, leg));
+            let (len, tau) = (len.lane(leg), tau.lane(leg));
+            let (pre, dy) = (&tg.dy_stage, &mut tg.dy);
+            for j in 0..N {
+                let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
+                let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
+                let dw = dv + du.cross(r_k);
+                let dforce = (dw - t * t.dot(&dw)) * (tau / len);
+                let jump_v = inv_se.component_mul(&dforce);
+                let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
+                for c in 0..3 {
+                    dy.v[c][j] += jump_v[c];
+                    dy.u[c][j] += jump_u[c];
+                }
             }
-        }
-        // The tension direction of tendon k: ∂(τ t)/∂τ = t.
-        if 6 + k < nd {
-            let (jump_v, jump_u) = (inv_se.component_mul(&t), inv_bt.component_mul(&rt));
-            for c in 0..3 {
-                dy.v[c][6 + k] += jump_v[c];
-                dy.u[c][6 + k] += jump_u[c];
+            // The tension direction of tendon k: ∂(τ t)/∂τ = t.
+            if 6 + k < nd {
+                let (jump_v, jump_u) = (inv_se.component_mul(&t), inv_bt.component_mul(&rt));
+                for c in 0..3 {
+                    dy.v[c][6 + k] += jump_v[c];
+                    dy.u[c][6 + k] += jump_u[c];
+                }
             }
         }
     }

@@ -1,21 +1,24 @@
 //! The symmetric positive definite 6×6 strain system of eq. (5), solved by its 3×3 block
 //! structure: M = \[A Bᵀ; B C\] with A the shear/extension block, C the bending/torsion
 //! block. A⁻¹ and the Schur complement S = C − B A⁻¹ Bᵀ are inverted in closed form
-//! (fixed-size code, no loops: this is the rod's innermost kernel).
+//! (fixed-size code, no loops: this is the rod's innermost kernel). Generic over the
+//! kernel's scalar ([`Real`]): one leg, or one leg per SIMD lane.
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::rod::lanes::{Real, mat_mul, mat_vec, tr_mat_vec};
+
 /// A factored 6×6 block matrix \[A Bᵀ; B C\].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ldlt6 {
-    a_inv: Matrix3<f64>,
+pub struct Ldlt6<T: Real = f64> {
+    a_inv: Matrix3<T>,
     /// X = B A⁻¹.
-    x: Matrix3<f64>,
-    b: Matrix3<f64>,
-    s_inv: Matrix3<f64>,
+    x: Matrix3<T>,
+    b: Matrix3<T>,
+    s_inv: Matrix3<T>,
 }
 
-impl Ldlt6 {
+impl<T: Real> Ldlt6<T> {
     /// The identity (a placeholder before the first factorization).
     pub fn identity() -> Self {
         Self {
@@ -28,11 +31,12 @@ impl Ldlt6 {
 
     /// Factors \[A Bᵀ; B C\] (A, C symmetric; only their upper triangles are read).
     /// `None` unless A and the Schur complement S = C − B A⁻¹ Bᵀ are positive on the
-    /// diagonal and have finite inverses (both are positive definite for τ ≥ 0).
+    /// diagonal and have finite inverses (both are positive definite for τ ≥ 0), in
+    /// every lane.
     #[inline(always)]
-    pub fn factor_blocks(a: &Matrix3<f64>, b: &Matrix3<f64>, c: &Matrix3<f64>) -> Option<Self> {
+    pub fn factor_blocks(a: &Matrix3<T>, b: &Matrix3<T>, c: &Matrix3<T>) -> Option<Self> {
         let a_inv = symmetric_inverse(a)?;
-        let x = b * a_inv;
+        let x = mat_mul(b, &a_inv);
         // S = C − X Bᵀ (symmetric: the upper triangle suffices).
         let mut s = *c;
         for i in 0..3 {
@@ -50,31 +54,23 @@ impl Ldlt6 {
     }
 
     /// Solves M \[x1; x2\] = \[b1; b2\].
-    #[inline]
-    pub fn solve_blocks(
-        &self,
-        b1: &Vector3<f64>,
-        b2: &Vector3<f64>,
-    ) -> (Vector3<f64>, Vector3<f64>) {
-        let x2 = self.s_inv * (b2 - self.x * b1);
-        let x1 = self.a_inv * (b1 - self.b.tr_mul(&x2));
+    #[inline(always)]
+    pub fn solve_blocks(&self, b1: &Vector3<T>, b2: &Vector3<T>) -> (Vector3<T>, Vector3<T>) {
+        let x2 = mat_vec(&self.s_inv, &(b2 - mat_vec(&self.x, b1)));
+        let x1 = mat_vec(&self.a_inv, &(b1 - tr_mat_vec(&self.b, &x2)));
         (x1, x2)
     }
 
-    /// Solves M x = b for a 6-vector.
-    #[inline]
-    pub fn solve(&self, b: [f64; 6]) -> [f64; 6] {
-        let (x1, x2) = self.solve_blocks(
-            &Vector3::new(b[0], b[1], b[2]),
-            &Vector3::new(b[3], b[4], b[5]),
-        );
-        [x1.x, x1.y, x1.z, x2.x, x2.y, x2.z]
-    }
-
-    /// Solves M x = b in place for `N` right-hand sides stored by component (`b[row][rhs]`).
+    /// Solves the system of lane `leg` in place for `N` right-hand sides stored by
+    /// component (`b[row][rhs]`).
     #[inline(always)]
-    pub fn solve_lanes<const N: usize>(&self, b: &mut [[f64; N]; 6]) {
-        let (x, s_inv, b_mat, a_inv) = (&self.x, &self.s_inv, &self.b, &self.a_inv);
+    pub fn solve_lanes<const N: usize>(&self, leg: usize, b: &mut [[f64; N]; 6]) {
+        let (x, s_inv, b_mat, a_inv) = (
+            Lane(&self.x, leg),
+            Lane(&self.s_inv, leg),
+            Lane(&self.b, leg),
+            Lane(&self.a_inv, leg),
+        );
         let mut t = [[0.0; N]; 3];
         for (c, t_row) in t.iter_mut().enumerate() {
             for j in 0..N {
@@ -107,26 +103,52 @@ impl Ldlt6 {
     }
 }
 
+/// Lane `.1` of a matrix of the kernel's scalar, read in place.
+#[derive(Clone, Copy)]
+struct Lane<'a, T: Real>(&'a Matrix3<T>, usize);
+
+impl<T: Real> std::ops::Index<(usize, usize)> for Lane<'_, T> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn index(&self, ij: (usize, usize)) -> &f64 {
+        self.0[ij].lane_ref(self.1)
+    }
+}
+
+impl Ldlt6<f64> {
+    /// Solves M x = b for a 6-vector.
+    #[inline]
+    pub fn solve(&self, b: [f64; 6]) -> [f64; 6] {
+        let (x1, x2) = self.solve_blocks(
+            &Vector3::new(b[0], b[1], b[2]),
+            &Vector3::new(b[3], b[4], b[5]),
+        );
+        [x1.x, x1.y, x1.z, x2.x, x2.y, x2.z]
+    }
+}
+
 /// The inverse of a symmetric 3×3 matrix from its upper triangle, by cofactors; `None`
-/// unless its first pivot and determinant are positive and the inverse is finite.
+/// unless its first pivot and determinant are positive and the inverse is finite (in
+/// every lane).
 #[inline(always)]
-fn symmetric_inverse(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+fn symmetric_inverse<T: Real>(m: &Matrix3<T>) -> Option<Matrix3<T>> {
     let (a, b, c) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
     let (d, e, f) = (m[(1, 1)], m[(1, 2)], m[(2, 2)]);
     let c00 = d * f - e * e;
     let c01 = c * e - b * f;
     let c02 = b * e - c * d;
     let det = a * c00 + b * c01 + c * c02;
-    if !(a > 0.0 && det > 0.0) {
+    if !(T::all(a.positive()) && T::all(det.positive())) {
         return None;
     }
-    let inv = 1.0 / det;
+    let inv = T::one() / det;
     let (i00, i01, i02) = (c00 * inv, c01 * inv, c02 * inv);
     let i11 = (a * f - c * c) * inv;
     let i12 = (b * c - a * e) * inv;
     let i22 = (a * d - b * b) * inv;
     let out = Matrix3::new(i00, i01, i02, i01, i11, i12, i02, i12, i22);
-    out.iter().all(|v| v.is_finite()).then_some(out)
+    out.iter().all(|v| T::all(v.finite())).then_some(out)
 }
 
 #[cfg(test)]
@@ -170,7 +192,7 @@ mod tests {
             }
         }
         let mut solved = lanes;
-        f.solve_lanes(&mut solved);
+        f.solve_lanes(0, &mut solved);
         for j in 0..3 {
             let single = f.solve([
                 lanes[0][j],

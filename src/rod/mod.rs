@@ -2,6 +2,7 @@
 
 pub mod cold_guess;
 pub mod integrate;
+pub mod lanes;
 pub mod ldlt6;
 pub mod leg_model;
 pub mod rhs;
@@ -10,7 +11,7 @@ pub mod tendon;
 
 pub use crate::spatial::{Frame, Wrench};
 pub use integrate::{
-    LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, MAX_DIRECTIONS, integrate_leg,
-    integrate_leg_with_sensitivities,
+    LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, LegsScratch, MAX_DIRECTIONS,
+    MAX_LEGS, integrate_leg, integrate_leg_with_sensitivities, integrate_legs,
 };
 pub use leg_model::LegModel;

@@ -23,32 +23,40 @@
 //! sensitivity direction then costs two small matrix–vector products and one solve with
 //! the stored factorization, done for all directions at once in structure-of-arrays lanes
 //! ([`Stage::tangents`]).
+//!
+//! The primal part ([`Stage::eval`], [`Stage::linearize`]) is generic over the kernel's
+//! scalar ([`Real`]): one leg (`f64`) or one leg per SIMD lane ([`F64x4`](super::lanes::F64x4));
+//! the tangents of each leg then run in their own direction lanes, reading the leg's lane.
 
 use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
+use crate::rod::lanes::{Real, cross, dot, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
 use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
 
+/// Most legs one [`Stage`] holds (the lanes of [`F64x4`](super::lanes::F64x4)).
+pub const MAX_LEGS: usize = 4;
+
 /// The rod state (or its derivative): position p \[m\], rotation R, strains v, u
 /// \[–, 1/m\] and tendon path lengths s_k \[m\].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RodState {
+pub struct RodState<T: Real = f64> {
     /// Backbone position p (world frame).
-    pub p: Vector3<f64>,
+    pub p: Vector3<T>,
     /// Backbone orientation R (body to world).
-    pub r: Matrix3<f64>,
+    pub r: Matrix3<T>,
     /// Shear/extension strain v (body frame).
-    pub v: Vector3<f64>,
+    pub v: Vector3<T>,
     /// Bending/torsion strain u (body frame).
-    pub u: Vector3<f64>,
+    pub u: Vector3<T>,
     /// Tendon path lengths s_k (entries beyond n_t unused).
-    pub s: [f64; MAX_TENDONS],
+    pub s: [T; MAX_TENDONS],
 }
 
-impl RodState {
+impl<T: Real> RodState<T> {
     /// All zeros.
     pub fn zeros() -> Self {
         Self {
@@ -56,22 +64,35 @@ impl RodState {
             r: Matrix3::zeros(),
             v: Vector3::zeros(),
             u: Vector3::zeros(),
-            s: [0.0; MAX_TENDONS],
+            s: [T::zero(); MAX_TENDONS],
         }
     }
 
     /// self = y + a·k for the parts that feed back into the right-hand side (R, v, u):
     /// an intermediate RK stage needs no p or s.
-    #[inline]
-    pub fn set_stage(&mut self, y: &Self, a: f64, k: &Self) {
+    #[inline(always)]
+    pub fn set_stage(&mut self, y: &Self, a: T, k: &Self) {
         self.r = y.r + k.r * a;
         self.v = y.v + k.v * a;
         self.u = y.u + k.u * a;
     }
 
+    /// self = y + a·k, over the first `nt` tendon lengths (the rest copied from y): as
+    /// `*self = *y` followed by [`RodState::axpy`], without the copy.
+    #[inline(always)]
+    pub fn set_sum(&mut self, y: &Self, a: T, k: &Self, nt: usize) {
+        self.p = y.p + k.p * a;
+        self.r = y.r + k.r * a;
+        self.v = y.v + k.v * a;
+        self.u = y.u + k.u * a;
+        for i in 0..MAX_TENDONS {
+            self.s[i] = if i < nt { y.s[i] + a * k.s[i] } else { y.s[i] };
+        }
+    }
+
     /// self += a·k, over the first `nt` tendon lengths.
-    #[inline]
-    pub fn axpy(&mut self, a: f64, k: &Self, nt: usize) {
+    #[inline(always)]
+    pub fn axpy(&mut self, a: T, k: &Self, nt: usize) {
         self.p += k.p * a;
         self.r += k.r * a;
         self.v += k.v * a;
@@ -89,8 +110,8 @@ pub fn hat(x: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// M x̂ for any 3×3 M, by columns: (M x̂) e_j = M (x × e_j).
-#[inline]
-pub fn times_hat(m: &Matrix3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
+#[inline(always)]
+pub fn times_hat<T: Real>(m: &Matrix3<T>, x: &Vector3<T>) -> Matrix3<T> {
     let (c0, c1, c2) = (m.column(0), m.column(1), m.column(2));
     Matrix3::from_columns(&[
         c1 * x.z - c2 * x.y,
@@ -101,51 +122,52 @@ pub fn times_hat(m: &Matrix3<f64>, x: &Vector3<f64>) -> Matrix3<f64> {
 
 /// Per-tendon quantities of one evaluation, kept for the linearization.
 #[derive(Debug, Clone, Copy)]
-struct TendonPoint {
+struct TendonPoint<T: Real> {
     /// Path tangent w = v + u × r (body frame).
-    w: Vector3<f64>,
+    w: Vector3<T>,
     /// ℓ = |w|.
-    len: f64,
+    len: T,
     /// t = w / ℓ.
-    t: Vector3<f64>,
+    t: Vector3<T>,
     /// r × t: d ℓ = t · dv + (r × t) · du.
-    rt: Vector3<f64>,
+    rt: Vector3<T>,
     /// c = τ / ℓ \[N\].
-    c: f64,
+    c: T,
 }
 
 /// One evaluation of the right-hand side: the point, its factorization and, after
 /// [`Stage::linearize`], the linear map every tangent direction goes through.
 #[derive(Debug, Clone)]
-pub struct Stage {
-    r: Matrix3<f64>,
-    v: Vector3<f64>,
-    u: Vector3<f64>,
+pub struct Stage<T: Real = f64> {
+    r: Matrix3<T>,
+    v: Vector3<T>,
+    u: Vector3<T>,
     /// K_se (v − e_z): body-frame internal force \[N\].
-    n_body: Vector3<f64>,
+    n_body: Vector3<T>,
     /// K_bt u: body-frame internal moment \[N·m\].
-    m_body: Vector3<f64>,
+    m_body: Vector3<T>,
     /// The solution x = \[v'; u'\].
-    dv: Vector3<f64>,
-    du: Vector3<f64>,
-    factor: Ldlt6,
-    tendons: [TendonPoint; MAX_TENDONS],
+    dv: Vector3<T>,
+    du: Vector3<T>,
+    factor: Ldlt6<T>,
+    tendons: [TendonPoint<T>; MAX_TENDONS],
     active: u32,
     /// Rows of \[H_v H_u\] (6×6).
-    h: [[f64; 6]; 6],
-    /// Per row, the tension directions' source P_kᵀ q_k / ℓ_k in lane 6 + k (zero elsewhere).
-    inject: [Lanes; 6],
+    h: [[T; 6]; 6],
+    /// Per leg and row, the tension directions' source P_kᵀ q_k / ℓ_k in lane 6 + k
+    /// (zero elsewhere), contiguous over directions for the tangent products.
+    inject: [[Lanes; 6]; MAX_LEGS],
 }
 
-impl Stage {
+impl<T: Real> Stage<T> {
     /// A stage with placeholder values (overwritten by the first [`Stage::eval`]).
     pub fn new() -> Self {
         let tp = TendonPoint {
             w: Vector3::zeros(),
-            len: 1.0,
+            len: T::one(),
             t: Vector3::zeros(),
             rt: Vector3::zeros(),
-            c: 0.0,
+            c: T::zero(),
         };
         Self {
             r: Matrix3::identity(),
@@ -158,8 +180,8 @@ impl Stage {
             factor: Ldlt6::identity(),
             tendons: [tp; MAX_TENDONS],
             active: 0,
-            h: [[0.0; 6]; 6],
-            inject: [[0.0; MAX_DIRECTIONS]; 6],
+            h: [[T::zero(); 6]; 6],
+            inject: [[[0.0; MAX_DIRECTIONS]; 6]; MAX_LEGS],
         }
     }
 
@@ -170,55 +192,69 @@ impl Stage {
     ///
     /// # Errors
     /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not
-    /// positive definite (which only a non-finite or absurd state can cause).
+    /// positive definite (which only a non-finite or absurd state can cause), in any lane.
     #[inline(always)]
     pub fn eval(
         &mut self,
         model: &LegModel,
-        y: &RodState,
-        tau: &[f64; MAX_TENDONS],
+        y: &RodState<T>,
+        tau: &[T; MAX_TENDONS],
         active: u32,
-        out: &mut RodState,
+        out: &mut RodState<T>,
         keep: bool,
     ) -> Result<(), SolveError> {
         let (v, u) = (y.v, y.u);
-        let n_body = model.k_se.component_mul(&(v - Vector3::z()));
-        let m_body = model.k_bt.component_mul(&u);
+        let (k_se, k_bt) = (model.k_se.map(T::splat), model.k_bt.map(T::splat));
+        let n_body = k_se.component_mul(&(v - Vector3::z()));
+        let m_body = k_bt.component_mul(&u);
         // M = K + Σ_k P_kᵀ A_k P_k in 3×3 blocks [A Bᵀ; B C]: A_k, r̂A_k, r̂ A_k r̂ᵀ.
         // A and C are symmetric: only their upper triangles are formed.
-        let mut blk_a = Matrix3::from_diagonal(&model.k_se);
+        let mut blk_a = Matrix3::from_diagonal(&k_se);
         let mut blk_b = Matrix3::zeros();
-        let mut blk_c = Matrix3::from_diagonal(&model.k_bt);
-        let mut rhs_v = -u.cross(&n_body) - y.r.tr_mul(&model.weight_per_length);
-        let mut rhs_u = -u.cross(&m_body) - v.cross(&n_body);
+        let mut blk_c = Matrix3::from_diagonal(&k_bt);
+        let mut rhs_v =
+            -cross(&u, &n_body) - tr_mat_vec(&y.r, &model.weight_per_length.map(T::splat));
+        let mut rhs_u = -cross(&u, &m_body) - cross(&v, &n_body);
         for k in 0..model.n_tendons {
             if active & (1 << k) == 0 {
-                out.s[k] = 0.0;
+                out.s[k] = T::zero();
                 continue;
             }
-            let r_k = &model.tendon_offsets[k];
-            let w = v + u.cross(r_k);
-            let len = w.norm();
+            let r_k = model.tendon_offsets[k].map(T::splat);
+            let w = v + cross(&u, &r_k);
+            let len = dot(&w, &w).sqrt();
             let t = w / len;
             let c = tau[k] / len;
             // A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
-            let rt = r_k.cross(&t);
-            if c != 0.0 {
+            let rt = cross(&r_k, &t);
+            // A slack tendon (c = 0) adds nothing: its lanes are left as they are.
+            let taut = c.nonzero();
+            if T::any(taut) {
                 let (hat_r, hat_sq) = (&model.tendon_hats[k], &model.tendon_hat_squares[k]);
+                let add = |acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x);
                 for i in 0..3 {
                     for j in i..3 {
-                        let id = if i == j { 1.0 } else { 0.0 };
-                        blk_a[(i, j)] += c * (id - t[i] * t[j]);
-                        blk_c[(i, j)] += c * (hat_sq[(i, j)] - rt[i] * rt[j]);
+                        let id = T::splat(if i == j { 1.0 } else { 0.0 });
+                        add(&mut blk_a[(i, j)], c * (id - t[i] * t[j]));
+                        add(
+                            &mut blk_c[(i, j)],
+                            c * (T::splat(hat_sq[(i, j)]) - rt[i] * rt[j]),
+                        );
                     }
                     for j in 0..3 {
-                        blk_b[(i, j)] += c * (hat_r[(i, j)] - rt[i] * t[j]);
+                        add(
+                            &mut blk_b[(i, j)],
+                            c * (T::splat(hat_r[(i, j)]) - rt[i] * t[j]),
+                        );
                     }
                 }
-                let z = u.cross(&w);
-                let a_z = (z - t * t.dot(&z)) * c;
-                rhs_v -= a_z;
-                rhs_u -= r_k.cross(&a_z);
+                let z = cross(&u, &w);
+                let a_z = (z - t * dot(&t, &z)) * c;
+                let moment = cross(&r_k, &a_z);
+                for i in 0..3 {
+                    add(&mut rhs_v[i], -a_z[i]);
+                    add(&mut rhs_u[i], -moment[i]);
+                }
             }
             self.tendons[k] = TendonPoint { w, len, t, rt, c };
             out.s[k] = len;
@@ -227,12 +263,12 @@ impl Stage {
             stage: "rod strain system (eq. 5)",
         })?;
         let (dv, du) = factor.solve_blocks(&rhs_v, &rhs_u);
-        if !(dv.iter().chain(du.iter()).all(|e| e.is_finite())) {
+        if !(dv.iter().chain(du.iter()).all(|e| T::all(e.finite()))) {
             return Err(SolveError::NonFinite {
                 stage: "rod strain derivatives (eq. 5)",
             });
         }
-        out.p = y.r * v;
+        out.p = mat_vec(&y.r, &v);
         out.r = times_hat(&y.r, &u);
         out.v = dv;
         out.u = du;
@@ -255,44 +291,47 @@ impl Stage {
     #[inline(always)]
     pub fn linearize(&mut self, model: &LegModel, directions: usize) {
         let (u, v, nb, mb) = (&self.u, &self.v, &self.n_body, &self.m_body);
-        let (kse, kbt) = (&model.k_se, &model.k_bt);
+        let (kse, kbt) = (model.k_se.map(T::splat), model.k_bt.map(T::splat));
+        let zero = T::zero();
         // Backbone terms, [û K_se, −n̂_b; v̂ K_se − n̂_b, û K_bt − m̂_b], x̂ K = columns of x̂
         // scaled by the diagonal K.
         let h = &mut self.h;
         *h = [
-            [0.0, -u.z * kse.y, u.y * kse.z, 0.0, nb.z, -nb.y],
-            [u.z * kse.x, 0.0, -u.x * kse.z, -nb.z, 0.0, nb.x],
-            [-u.y * kse.x, u.x * kse.y, 0.0, nb.y, -nb.x, 0.0],
+            [zero, -u.z * kse.y, u.y * kse.z, zero, nb.z, -nb.y],
+            [u.z * kse.x, zero, -u.x * kse.z, -nb.z, zero, nb.x],
+            [-u.y * kse.x, u.x * kse.y, zero, nb.y, -nb.x, zero],
             [
-                0.0,
+                zero,
                 -v.z * kse.y + nb.z,
                 v.y * kse.z - nb.y,
-                0.0,
+                zero,
                 -u.z * kbt.y + mb.z,
                 u.y * kbt.z - mb.y,
             ],
             [
                 v.z * kse.x - nb.z,
-                0.0,
+                zero,
                 -v.x * kse.z + nb.x,
                 u.z * kbt.x - mb.z,
-                0.0,
+                zero,
                 -u.x * kbt.z + mb.x,
             ],
             [
                 -v.y * kse.x + nb.y,
                 v.x * kse.y - nb.x,
-                0.0,
+                zero,
                 -u.y * kbt.x + mb.y,
                 u.x * kbt.y - mb.x,
-                0.0,
+                zero,
             ],
         ];
         // Tendons that are not running here inject nothing in their tension lane.
         for k in 0..model.n_tendons.min(directions.saturating_sub(6)) {
             if self.active & (1 << k) == 0 {
-                for row in self.inject.iter_mut() {
-                    row[6 + k] = 0.0;
+                for leg in &mut self.inject[..T::LANES] {
+                    for row in leg.iter_mut() {
+                        row[6 + k] = 0.0;
+                    }
                 }
             }
         }
@@ -301,40 +340,44 @@ impl Stage {
                 continue;
             }
             let tp = &self.tendons[k];
-            let r = &model.tendon_offsets[k];
-            let y = self.dv + self.du.cross(r) + u.cross(&tp.w);
+            let r = model.tendon_offsets[k].map(T::splat);
+            let y = self.dv + cross(&self.du, &r) + cross(u, &tp.w);
             let (t, c, len) = (&tp.t, tp.c, tp.len);
-            let ty = t.dot(&y);
+            let ty = dot(t, &y);
             let q = y - t * ty;
             let lane = 6 + k;
             if lane < directions {
                 let src = q / len;
-                let moment = r.cross(&src);
-                for i in 0..3 {
-                    self.inject[i][lane] = src[i];
-                    self.inject[3 + i][lane] = moment[i];
+                let moment = cross(&r, &src);
+                for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
+                    for i in 0..3 {
+                        inject[i][lane] = src[i].lane(leg);
+                        inject[3 + i][lane] = moment[i].lane(leg);
+                    }
                 }
             }
-            if c == 0.0 {
+            // A slack tendon (c = 0) adds nothing to H: its lanes are left as they are.
+            let taut = c.nonzero();
+            if !T::any(taut) {
                 continue;
             }
             // N = A û − T with A û = c (û + t (u × t)ᵀ) and
             // T = (c/ℓ)(q tᵀ + t qᵀ + (t·y)(I − t tᵀ)); Ñ = −N r̂ − A ŵ, A ŵ = c ŵ (t ∥ w).
-            let ut = u.cross(t);
+            let ut = cross(u, t);
             let (ct, w) = (c / len, &tp.w);
-            let u_hat = [[0.0, -u.z, u.y], [u.z, 0.0, -u.x], [-u.y, u.x, 0.0]];
-            let mut n = [[0.0; 3]; 3];
+            let u_hat = [[zero, -u.z, u.y], [u.z, zero, -u.x], [-u.y, u.x, zero]];
+            let mut n = [[zero; 3]; 3];
             for i in 0..3 {
                 for j in 0..3 {
-                    let id = if i == j { 1.0 } else { 0.0 };
+                    let id = T::splat(if i == j { 1.0 } else { 0.0 });
                     let a_u = c * (u_hat[i][j] + t[i] * ut[j]);
                     let tm = ct * (q[i] * t[j] + t[i] * q[j] + ty * (id - t[i] * t[j]));
                     n[i][j] = a_u - tm;
                 }
             }
-            let w_hat = [[0.0, -w.z, w.y], [w.z, 0.0, -w.x], [-w.y, w.x, 0.0]];
+            let w_hat = [[zero, -w.z, w.y], [w.z, zero, -w.x], [-w.y, w.x, zero]];
             // Ñ = −N r̂ − c ŵ, N r̂ by columns: (N r̂) e_j = N (r × e_j).
-            let mut nt = [[0.0; 3]; 3];
+            let mut nt = [[zero; 3]; 3];
             for i in 0..3 {
                 let row = &n[i];
                 let nr = [
@@ -347,30 +390,39 @@ impl Stage {
                 }
             }
             // [I; r̂] applied to N (H_v columns) and Ñ (H_u columns): r̂ M by rows.
+            let add = |acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x);
             for (m, col) in [(&n, 0), (&nt, 3)] {
                 for j in 0..3 {
                     let (m0, m1, m2) = (m[0][j], m[1][j], m[2][j]);
-                    h[0][col + j] += m0;
-                    h[1][col + j] += m1;
-                    h[2][col + j] += m2;
-                    h[3][col + j] += r.y * m2 - r.z * m1;
-                    h[4][col + j] += r.z * m0 - r.x * m2;
-                    h[5][col + j] += r.x * m1 - r.y * m0;
+                    add(&mut h[0][col + j], m0);
+                    add(&mut h[1][col + j], m1);
+                    add(&mut h[2][col + j], m2);
+                    add(&mut h[3][col + j], r.y * m2 - r.z * m1);
+                    add(&mut h[4][col + j], r.z * m0 - r.x * m2);
+                    add(&mut h[5][col + j], r.x * m1 - r.y * m0);
                 }
             }
         }
     }
 
-    /// Propagates the tangents through this stage at the last [`Stage::linearize`]: the
-    /// derivative k of the first `N` lanes of `d` (only its R, v, u lanes are read) is
-    /// emitted straight into the RK sums of `step` (no intermediate buffer).
+    /// Propagates the tangents of leg (lane) `leg` through this stage at the last
+    /// [`Stage::linearize`]: the derivative k of the first `N` lanes of `d` (only its R, v,
+    /// u lanes are read) is emitted straight into the RK sums of `step` (no intermediate
+    /// buffer).
     #[inline(always)]
-    pub fn tangents<const N: usize>(&self, model: &LegModel, d: &Tangents, step: &mut RkEmit) {
+    pub fn tangents<const N: usize>(
+        &self,
+        leg: usize,
+        model: &LegModel,
+        d: &Tangents,
+        step: &mut RkEmit,
+    ) {
+        let lane = |x: &Vector3<T>| x.map(|e| e.lane(leg));
         let f = &model.weight_per_length;
         let mut b = [[0.0; N]; 6];
         for (row, b_row) in b.iter_mut().enumerate() {
-            let h = &self.h[row];
-            let inject = &self.inject[row];
+            let h = self.h[row].map(|e| e.lane(leg));
+            let inject = &self.inject[leg][row];
             for j in 0..N {
                 b_row[j] = h[0] * d.v[0][j]
                     + h[1] * d.v[1][j]
@@ -391,7 +443,7 @@ impl Stage {
         for k in 0..model.n_tendons {
             let mut ds = [0.0; N];
             if self.active & (1 << k) != 0 {
-                let (t, rt) = (&self.tendons[k].t, &self.tendons[k].rt);
+                let (t, rt) = (lane(&self.tendons[k].t), lane(&self.tendons[k].rt));
                 for j in 0..N {
                     ds[j] = t.x * d.v[0][j]
                         + t.y * d.v[1][j]
@@ -403,7 +455,7 @@ impl Stage {
             }
             step.passive(Row::S(k), &ds);
         }
-        let (rot, v, u) = (&self.r, &self.v, &self.u);
+        let (rot, v, u) = (self.r.map(|e| e.lane(leg)), lane(&self.v), lane(&self.u));
         for row in 0..3 {
             let (r0, r1, r2) = (rot[(row, 0)], rot[(row, 1)], rot[(row, 2)]);
             let (mut dp, mut c0, mut c1, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
@@ -427,7 +479,7 @@ impl Stage {
             step.active(Row::R(3 + row), &c1);
             step.active(Row::R(6 + row), &c2);
         }
-        self.factor.solve_lanes(&mut b);
+        self.factor.solve_lanes(leg, &mut b);
         for c in 0..3 {
             for j in 0..N {
                 b[c][j] = -b[c][j];
@@ -525,7 +577,7 @@ impl RkEmit<'_> {
     }
 }
 
-impl Default for Stage {
+impl<T: Real> Default for Stage<T> {
     fn default() -> Self {
         Self::new()
     }
