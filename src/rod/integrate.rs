@@ -301,15 +301,15 @@ fn integrate<T: Real>(
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked just above.
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports AVX2 and FMA, checked just above.
         return unsafe { integrate_avx2(model, starts, buf, ends, sens, shape) };
     }
     integrate_dispatch(model, starts, buf, ends, sens, shape)
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
+#[target_feature(enable = "avx2,fma")]
 fn integrate_avx2<T: Real>(
     model: &LegModel,
     starts: &[LegStart],
@@ -610,10 +610,12 @@ mod tests {
             let mut sc = LegScratch::new();
             let mut end = LegEnd::zeros();
             let mut sens = LegSensitivities::new(directions);
+            let (starts, ends) = (std::slice::from_ref(&start), std::slice::from_mut(&mut end));
+            let sens_slice = Some(std::slice::from_mut(&mut sens));
             if portable {
-                integrate_dispatch(&model, &start, &mut sc, &mut end, Some(&mut sens), None)
+                integrate_dispatch(&model, starts, &mut sc.0, ends, sens_slice, None)
             } else {
-                integrate(&model, &start, &mut sc, &mut end, Some(&mut sens), None)
+                integrate(&model, starts, &mut sc.0, ends, sens_slice, None)
             }
             .unwrap();
             (end, sens.d)
@@ -624,5 +626,61 @@ mod tests {
         let (end, d) = run(true, 6);
         assert_eq!(end, reference.0);
         assert_eq!(d[..6], reference.1[..6]);
+    }
+
+    /// Three different legs integrated together, one per SIMD lane, give bitwise the tips
+    /// and sensitivities of three separate integrations, with and without AVX2; a
+    /// slack tendon in one lane and a taut one in another exercise the per-lane selects.
+    #[test]
+    fn legs_in_lanes_are_bitwise_the_single_legs() {
+        let model = leg();
+        let start = |i: usize| {
+            let mut tensions = [0.0; MAX_TENDONS];
+            tensions[i % 3] = 1.5 + i as f64;
+            let angle = 2.0 * i as f64;
+            LegStart {
+                base: Frame {
+                    position: Vector3::new(0.01 * i as f64, -0.02, 0.003),
+                    rotation: *nalgebra::Rotation3::from_euler_angles(0.1, -0.2 * i as f64, angle)
+                        .matrix(),
+                },
+                u0: Vector3::new(0.3 - i as f64, 6.0 * i as f64 - 4.0, -0.1),
+                v0: Vector3::new(1e-5 * i as f64, 0.0, 0.99992),
+                tensions,
+            }
+        };
+        let starts = [start(0), start(1), start(2)];
+        for directions in [0, 6, 9] {
+            let single = |i: usize| {
+                let (mut end, mut sens) = (LegEnd::zeros(), LegSensitivities::new(directions));
+                let mut sc = LegScratch::new();
+                if directions == 0 {
+                    integrate_leg(&model, &starts[i], &mut sc, &mut end, None).unwrap();
+                } else {
+                    integrate_leg_with_sensitivities(
+                        &model, &starts[i], &mut sc, &mut end, &mut sens, None,
+                    )
+                    .unwrap();
+                }
+                (end, sens.d)
+            };
+            for portable in [false, true] {
+                let mut sc = LegsScratch::new();
+                let mut ends = [LegEnd::zeros(); 3];
+                let mut sens: Vec<_> = (0..3).map(|_| LegSensitivities::new(directions)).collect();
+                let sens_slice = (directions > 0).then_some(&mut sens[..]);
+                if portable {
+                    integrate_dispatch(&model, &starts, &mut sc.0, &mut ends, sens_slice, None)
+                } else {
+                    integrate_legs(&model, &starts, &mut sc, &mut ends, sens_slice)
+                }
+                .unwrap();
+                for i in 0..3 {
+                    let (end, d) = single(i);
+                    assert_eq!(ends[i], end, "leg {i}, {directions} directions");
+                    assert_eq!(sens[i].d, d, "leg {i}, {directions} directions");
+                }
+            }
+        }
     }
 }

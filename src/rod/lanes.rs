@@ -271,6 +271,14 @@ impl Real for F64x4 {
     }
 }
 
+/// a·b + c with one rounding (the tangent kernel's fused multiply–add: an instruction
+/// where the CPU has FMA, exact software emulation elsewhere, so the same bits on every
+/// CPU).
+#[inline(always)]
+pub fn fma(a: f64, b: f64, c: f64) -> f64 {
+    a.mul_add(b, c)
+}
+
 /// a × b, in nalgebra's order of operations (so bitwise its result for `f64`), always
 /// inlined: nalgebra's generic products are not inlined for [`F64x4`], and a call leaves
 /// the AVX2 code of the kernel.

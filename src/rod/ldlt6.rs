@@ -6,7 +6,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::rod::lanes::{Real, mat_mul, mat_vec, tr_mat_vec};
+use crate::rod::lanes::{Real, fma, mat_mul, mat_vec, tr_mat_vec};
 
 /// A factored 6×6 block matrix \[A Bᵀ; B C\].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,30 +74,30 @@ impl<T: Real> Ldlt6<T> {
         let mut t = [[0.0; N]; 3];
         for (c, t_row) in t.iter_mut().enumerate() {
             for j in 0..N {
-                t_row[j] =
-                    b[3 + c][j] - x[(c, 0)] * b[0][j] - x[(c, 1)] * b[1][j] - x[(c, 2)] * b[2][j];
+                let acc = fma(-x[(c, 0)], b[0][j], b[3 + c][j]);
+                let acc = fma(-x[(c, 1)], b[1][j], acc);
+                t_row[j] = fma(-x[(c, 2)], b[2][j], acc);
             }
         }
         // x2 = S⁻¹ (b2 − X b1)
         for c in 0..3 {
             for j in 0..N {
-                b[3 + c][j] =
-                    s_inv[(c, 0)] * t[0][j] + s_inv[(c, 1)] * t[1][j] + s_inv[(c, 2)] * t[2][j];
+                let acc = fma(s_inv[(c, 1)], t[1][j], s_inv[(c, 0)] * t[0][j]);
+                b[3 + c][j] = fma(s_inv[(c, 2)], t[2][j], acc);
             }
         }
         // x1 = A⁻¹ (b1 − Bᵀ x2)
         for (c, t_row) in t.iter_mut().enumerate() {
             for j in 0..N {
-                t_row[j] = b[c][j]
-                    - b_mat[(0, c)] * b[3][j]
-                    - b_mat[(1, c)] * b[4][j]
-                    - b_mat[(2, c)] * b[5][j];
+                let acc = fma(-b_mat[(0, c)], b[3][j], b[c][j]);
+                let acc = fma(-b_mat[(1, c)], b[4][j], acc);
+                t_row[j] = fma(-b_mat[(2, c)], b[5][j], acc);
             }
         }
         for c in 0..3 {
             for j in 0..N {
-                b[c][j] =
-                    a_inv[(c, 0)] * t[0][j] + a_inv[(c, 1)] * t[1][j] + a_inv[(c, 2)] * t[2][j];
+                let acc = fma(a_inv[(c, 1)], t[1][j], a_inv[(c, 0)] * t[0][j]);
+                b[c][j] = fma(a_inv[(c, 2)], t[2][j], acc);
             }
         }
     }

@@ -32,7 +32,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
-use crate::rod::lanes::{Real, cross, dot, mat_vec, tr_mat_vec};
+use crate::rod::lanes::{Real, cross, dot, fma, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
 use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
@@ -424,19 +424,20 @@ impl<T: Real> Stage<T> {
             let h = self.h[row].map(|e| e.lane(leg));
             let inject = &self.inject[leg][row];
             for j in 0..N {
-                b_row[j] = h[0] * d.v[0][j]
-                    + h[1] * d.v[1][j]
-                    + h[2] * d.v[2][j]
-                    + h[3] * d.u[0][j]
-                    + h[4] * d.u[1][j]
-                    + h[5] * d.u[2][j]
-                    + inject[j];
+                let mut acc = fma(h[0], d.v[0][j], inject[j]);
+                acc = fma(h[1], d.v[1][j], acc);
+                acc = fma(h[2], d.v[2][j], acc);
+                acc = fma(h[3], d.u[0][j], acc);
+                acc = fma(h[4], d.u[1][j], acc);
+                b_row[j] = fma(h[5], d.u[2][j], acc);
             }
         }
         // e = dRᵀ f (R stored column-major: entry (row, col) at 3 col + row).
         for c in 0..3 {
             for j in 0..N {
-                b[c][j] += d.r[3 * c][j] * f.x + d.r[3 * c + 1][j] * f.y + d.r[3 * c + 2][j] * f.z;
+                let acc = fma(d.r[3 * c][j], f.x, b[c][j]);
+                let acc = fma(d.r[3 * c + 1][j], f.y, acc);
+                b[c][j] = fma(d.r[3 * c + 2][j], f.z, acc);
             }
         }
         // The tendon lengths read dv, du before anything is emitted.
@@ -445,12 +446,11 @@ impl<T: Real> Stage<T> {
             if self.active & (1 << k) != 0 {
                 let (t, rt) = (lane(&self.tendons[k].t), lane(&self.tendons[k].rt));
                 for j in 0..N {
-                    ds[j] = t.x * d.v[0][j]
-                        + t.y * d.v[1][j]
-                        + t.z * d.v[2][j]
-                        + rt.x * d.u[0][j]
-                        + rt.y * d.u[1][j]
-                        + rt.z * d.u[2][j];
+                    let acc = fma(t.y, d.v[1][j], t.x * d.v[0][j]);
+                    let acc = fma(t.z, d.v[2][j], acc);
+                    let acc = fma(rt.x, d.u[0][j], acc);
+                    let acc = fma(rt.y, d.u[1][j], acc);
+                    ds[j] = fma(rt.z, d.u[2][j], acc);
                 }
             }
             step.passive(Row::S(k), &ds);
@@ -463,16 +463,15 @@ impl<T: Real> Stage<T> {
                 let (a0, a1, a2) = (d.r[row][j], d.r[3 + row][j], d.r[6 + row][j]);
                 let (w0, w1, w2) = (d.u[0][j], d.u[1][j], d.u[2][j]);
                 // dp' = dR v + R dv
-                dp[j] = a0 * v.x
-                    + a1 * v.y
-                    + a2 * v.z
-                    + r0 * d.v[0][j]
-                    + r1 * d.v[1][j]
-                    + r2 * d.v[2][j];
+                let acc = fma(a1, v.y, a0 * v.x);
+                let acc = fma(a2, v.z, acc);
+                let acc = fma(r0, d.v[0][j], acc);
+                let acc = fma(r1, d.v[1][j], acc);
+                dp[j] = fma(r2, d.v[2][j], acc);
                 // dR' = dR û + R dû, column by column: M x̂ e_j = M (x × e_j).
-                c0[j] = a1 * u.z - a2 * u.y + r1 * w2 - r2 * w1;
-                c1[j] = a2 * u.x - a0 * u.z + r2 * w0 - r0 * w2;
-                c2[j] = a0 * u.y - a1 * u.x + r0 * w1 - r1 * w0;
+                c0[j] = fma(a1, u.z, fma(-a2, u.y, fma(r1, w2, -r2 * w1)));
+                c1[j] = fma(a2, u.x, fma(-a0, u.z, fma(r2, w0, -r0 * w2)));
+                c2[j] = fma(a0, u.y, fma(-a1, u.x, fma(r0, w1, -r1 * w0)));
             }
             step.passive(Row::P(row), &dp);
             step.active(Row::R(row), &c0);
@@ -554,7 +553,7 @@ impl RkEmit<'_> {
         if let Some((next, c)) = self.next.as_mut() {
             let (base, out) = (self.base.row(row), next.row_mut(row));
             for j in 0..N {
-                out[j] = base[j] + *c * k[j];
+                out[j] = fma(*c, k[j], base[j]);
             }
         }
     }
@@ -567,11 +566,11 @@ impl RkEmit<'_> {
         if self.first {
             let base = self.base.row(row);
             for j in 0..N {
-                out[j] = base[j] + a * k[j];
+                out[j] = fma(a, k[j], base[j]);
             }
         } else {
             for j in 0..N {
-                out[j] += a * k[j];
+                out[j] = fma(a, k[j], out[j]);
             }
         }
     }
