@@ -207,7 +207,14 @@ pub fn boundary_residual(
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
-    integrate_legs(&model.leg, &sc.starts, &mut sc.group, &mut sc.ends, None)?;
+    integrate_legs(
+        &model.leg,
+        &sc.starts,
+        &mut sc.group,
+        &mut sc.ends,
+        None,
+        None,
+    )?;
     assemble_residual(model, p, &sc.ends, r);
     Ok(())
 }
@@ -231,7 +238,14 @@ pub fn boundary_derivatives(
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
     let sens = Some(&mut sc.sens[..]);
-    integrate_legs(&model.leg, &sc.starts, &mut sc.group, &mut sc.ends, sens)?;
+    integrate_legs(
+        &model.leg,
+        &sc.starts,
+        &mut sc.group,
+        &mut sc.ends,
+        sens,
+        None,
+    )?;
     assemble_residual(model, p, &sc.ends, r);
     jac.b_x.fill(0.0);
     jac.b_q.fill(0.0);

@@ -99,11 +99,11 @@ impl LegShape {
         }
     }
 
-    /// Appends the frame of lane 0 (the one leg of a shape-recording integration).
-    fn push<T: Real>(&mut self, s: f64, y: &RodState<T>) {
+    /// Appends the frame of lane `leg`.
+    fn push<T: Real>(&mut self, s: f64, y: &RodState<T>, leg: usize) {
         self.arcs.push(s);
-        self.positions.push(y.p.map(|e| e.lane(0)));
-        self.rotations.push(y.r.map(|e| e.lane(0)));
+        self.positions.push(y.p.map(|e| e.lane(leg)));
+        self.rotations.push(y.r.map(|e| e.lane(leg)));
     }
 
     fn clear(&mut self) {
@@ -224,7 +224,8 @@ pub fn integrate_leg(
     shape: Option<&mut LegShape>,
 ) -> Result<(), SolveError> {
     let (starts, ends) = (std::slice::from_ref(start), std::slice::from_mut(end));
-    integrate(model, starts, &mut scratch.0, ends, None, shape)
+    let shapes = shape.map(std::slice::from_mut);
+    integrate(model, starts, &mut scratch.0, ends, None, shapes)
 }
 
 /// As [`integrate_leg`], and also the exact derivatives of the tip state with respect
@@ -244,20 +245,21 @@ pub fn integrate_leg_with_sensitivities(
     check_directions(model, std::slice::from_ref(sens));
     let (starts, ends) = (std::slice::from_ref(start), std::slice::from_mut(end));
     let sens = Some(std::slice::from_mut(sens));
-    integrate(model, starts, &mut scratch.0, ends, sens, shape)
+    let shapes = shape.map(std::slice::from_mut);
+    integrate(model, starts, &mut scratch.0, ends, sens, shapes)
 }
 
 /// Integrates several legs of one model (up to [`MAX_LEGS`], e.g. the three legs of a
 /// robot) together, one per SIMD lane: the same tips and sensitivities, bitwise, as
 /// [`integrate_leg`] / [`integrate_leg_with_sensitivities`] leg by leg, in about the time
 /// of one leg's primal kernel (module [`lanes`](super::lanes)). With `sens`, every leg
-/// gets the same number of directions.
+/// gets the same number of directions; with `shapes`, every leg's frames at the disks.
 ///
 /// # Errors
 /// [`SolveError::NonFinite`] if any leg's state blows up.
 ///
 /// # Panics
-/// If `starts`, `ends` (and `sens`) differ in length or hold more than [`MAX_LEGS`]
+/// If `starts`, `ends` (and `sens`, `shapes`) differ in length or hold more than [`MAX_LEGS`]
 /// legs, or the legs' direction counts differ or exceed 6 + n_t (programming errors).
 #[track_caller]
 pub fn integrate_legs(
@@ -266,6 +268,7 @@ pub fn integrate_legs(
     scratch: &mut LegsScratch,
     ends: &mut [LegEnd],
     sens: Option<&mut [LegSensitivities]>,
+    shapes: Option<&mut [LegShape]>,
 ) -> Result<(), SolveError> {
     assert!(
         (1..=MAX_LEGS).contains(&starts.len()) && ends.len() == starts.len(),
@@ -274,10 +277,21 @@ pub fn integrate_legs(
         ends.len()
     );
     if let Some(sens) = sens.as_deref() {
-        assert_eq!(sens.len(), starts.len(), "integrate_legs: one sensitivity per leg");
+        assert_eq!(
+            sens.len(),
+            starts.len(),
+            "integrate_legs: one sensitivity per leg"
+        );
         check_directions(model, sens);
     }
-    integrate(model, starts, &mut scratch.0, ends, sens, None)
+    if let Some(shapes) = shapes.as_deref() {
+        assert_eq!(
+            shapes.len(),
+            starts.len(),
+            "integrate_legs: one shape per leg"
+        );
+    }
+    integrate(model, starts, &mut scratch.0, ends, sens, shapes)
 }
 
 #[track_caller]
@@ -298,14 +312,14 @@ fn integrate<T: Real>(
     buf: &mut Buffers<T>,
     ends: &mut [LegEnd],
     sens: Option<&mut [LegSensitivities]>,
-    shape: Option<&mut LegShape>,
+    shapes: Option<&mut [LegShape]>,
 ) -> Result<(), SolveError> {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU supports AVX2 and FMA, checked just above.
-        return unsafe { integrate_avx2(model, starts, buf, ends, sens, shape) };
+        return unsafe { integrate_avx2(model, starts, buf, ends, sens, shapes) };
     }
-    integrate_dispatch(model, starts, buf, ends, sens, shape)
+    integrate_dispatch(model, starts, buf, ends, sens, shapes)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -316,9 +330,9 @@ fn integrate_avx2<T: Real>(
     buf: &mut Buffers<T>,
     ends: &mut [LegEnd],
     sens: Option<&mut [LegSensitivities]>,
-    shape: Option<&mut LegShape>,
+    shapes: Option<&mut [LegShape]>,
 ) -> Result<(), SolveError> {
-    integrate_dispatch(model, starts, buf, ends, sens, shape)
+    integrate_dispatch(model, starts, buf, ends, sens, shapes)
 }
 
 /// Picks the lane count N ≥ the directions used (0: primal only): 8 covers a leg with
@@ -330,13 +344,13 @@ fn integrate_dispatch<T: Real>(
     buf: &mut Buffers<T>,
     ends: &mut [LegEnd],
     sens: Option<&mut [LegSensitivities]>,
-    shape: Option<&mut LegShape>,
+    shapes: Option<&mut [LegShape]>,
 ) -> Result<(), SolveError> {
     match sens.as_ref().map_or(0, |s| s[0].directions) {
-        0 => integrate_lanes::<0, T>(model, starts, buf, ends, None, shape),
-        1..=8 => integrate_lanes::<8, T>(model, starts, buf, ends, sens, shape),
-        9..=10 => integrate_lanes::<10, T>(model, starts, buf, ends, sens, shape),
-        _ => integrate_lanes::<MAX_DIRECTIONS, T>(model, starts, buf, ends, sens, shape),
+        0 => integrate_lanes::<0, T>(model, starts, buf, ends, None, shapes),
+        1..=8 => integrate_lanes::<8, T>(model, starts, buf, ends, sens, shapes),
+        9..=10 => integrate_lanes::<10, T>(model, starts, buf, ends, sens, shapes),
+        _ => integrate_lanes::<MAX_DIRECTIONS, T>(model, starts, buf, ends, sens, shapes),
     }
 }
 
@@ -353,7 +367,7 @@ fn integrate_lanes<const N: usize, T: Real>(
     buf: &mut Buffers<T>,
     ends: &mut [LegEnd],
     sens: Option<&mut [LegSensitivities]>,
-    mut shape: Option<&mut LegShape>,
+    mut shapes: Option<&mut [LegShape]>,
 ) -> Result<(), SolveError> {
     let legs = starts.len();
     let nd = sens.as_ref().map_or(0, |s| s[0].directions);
@@ -381,9 +395,11 @@ fn integrate_lanes<const N: usize, T: Real>(
             tg.dy.set_initial::<N>(nt);
         }
     }
-    if let Some(shape) = shape.as_deref_mut() {
-        shape.clear();
-        shape.push(0.0, &buf.y);
+    if let Some(shapes) = shapes.as_deref_mut() {
+        for (leg, shape) in shapes.iter_mut().enumerate() {
+            shape.clear();
+            shape.push(0.0, &buf.y, leg);
+        }
     }
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
@@ -393,8 +409,10 @@ fn integrate_lanes<const N: usize, T: Real>(
         if iv.terminating != 0 {
             apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
         }
-        if let (Some(shape), Some(_)) = (shape.as_deref_mut(), iv.disk) {
-            shape.push(iv.end, &buf.y);
+        if let (Some(shapes), Some(_)) = (shapes.as_deref_mut(), iv.disk) {
+            for (leg, shape) in shapes.iter_mut().enumerate() {
+                shape.push(iv.end, &buf.y, leg);
+            }
         }
     }
     let y = &buf.y;
@@ -465,7 +483,8 @@ fn rk4_step<const N: usize, T: Real>(
     const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
         let input = if i == 0 { &buf.y } else { &buf.y_stage };
-        buf.stage.eval(model, input, &buf.tau, active, &mut buf.k, N > 0)?;
+        buf.stage
+            .eval(model, input, &buf.tau, active, &mut buf.k, N > 0)?;
         let b = weight * h / 6.0;
         if i == 0 {
             buf.y_next.set_sum(&buf.y, T::splat(b), &buf.k, nt);
@@ -672,7 +691,7 @@ mod tests {
                 if portable {
                     integrate_dispatch(&model, &starts, &mut sc.0, &mut ends, sens_slice, None)
                 } else {
-                    integrate_legs(&model, &starts, &mut sc, &mut ends, sens_slice)
+                    integrate_legs(&model, &starts, &mut sc, &mut ends, sens_slice, None)
                 }
                 .unwrap();
                 for i in 0..3 {

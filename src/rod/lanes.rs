@@ -264,9 +264,8 @@ impl Real for F64x4 {
     #[inline(always)]
     fn add_where(m: Bits, acc: Self, x: Self) -> Self {
         let sum = acc + x;
-        let pick = |i: usize| {
-            f64::from_bits((sum.0[i].to_bits() & m[i]) | (acc.0[i].to_bits() & !m[i]))
-        };
+        let pick =
+            |i: usize| f64::from_bits((sum.0[i].to_bits() & m[i]) | (acc.0[i].to_bits() & !m[i]));
         F64x4([pick(0), pick(1), pick(2), pick(3)])
     }
 }
@@ -323,9 +322,7 @@ pub fn mat_mul<T: Real>(a: &Matrix3<T>, b: &Matrix3<T>) -> Matrix3<T> {
     let c0 = mat_vec(a, &Vector3::new(b[(0, 0)], b[(1, 0)], b[(2, 0)]));
     let c1 = mat_vec(a, &Vector3::new(b[(0, 1)], b[(1, 1)], b[(2, 1)]));
     let c2 = mat_vec(a, &Vector3::new(b[(0, 2)], b[(1, 2)], b[(2, 2)]));
-    Matrix3::new(
-        c0.x, c1.x, c2.x, c0.y, c1.y, c2.y, c0.z, c1.z, c2.z,
-    )
+    Matrix3::new(c0.x, c1.x, c2.x, c0.y, c1.y, c2.y, c0.z, c1.z, c2.z)
 }
 
 #[cfg(test)]
@@ -348,7 +345,10 @@ mod tests {
         let m = b.nonzero();
         assert_eq!(m, [u64::MAX, u64::MAX, u64::MAX, 0]);
         let acc = F64x4::splat(-0.0);
-        assert_eq!(F64x4::add_where(m, acc, a).0[3].to_bits(), (-0.0f64).to_bits());
+        assert_eq!(
+            F64x4::add_where(m, acc, a).0[3].to_bits(),
+            (-0.0f64).to_bits()
+        );
         assert!(F64x4::any(m) && !F64x4::all(m));
         assert!(!F64x4::all((a / b).finite()));
     }

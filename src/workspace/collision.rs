@@ -11,7 +11,7 @@ use crate::error::SolveError;
 use crate::kinetostatics::RobotState;
 use crate::model::Model;
 use crate::rod::tendon::TendonUnknown;
-use crate::rod::{LegEnd, LegScratch, LegShape, integrate_leg};
+use crate::rod::{LegEnd, LegShape, LegsScratch, integrate_legs};
 
 /// What collides first (legs numbered from 0, disks from 1 at s = L/n_d).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,8 +118,8 @@ pub fn first_collision(
 /// Buffers for [`CollisionChecker::check`]: one leg integration scratch and three shapes.
 #[derive(Debug, Clone)]
 pub struct CollisionChecker {
-    scratch: LegScratch,
-    end: LegEnd,
+    scratch: LegsScratch,
+    ends: [LegEnd; 3],
     shapes: [LegShape; 3],
 }
 
@@ -128,8 +128,8 @@ impl CollisionChecker {
     pub fn new(model: &Model) -> Self {
         let shape = || LegShape::with_capacity(model.leg.n_disks);
         Self {
-            scratch: LegScratch::new(),
-            end: LegEnd::zeros(),
+            scratch: LegsScratch::new(),
+            ends: [LegEnd::zeros(); 3],
             shapes: [shape(), shape(), shape()],
         }
     }
@@ -144,16 +144,17 @@ impl CollisionChecker {
         model: &Model,
         state: &RobotState,
     ) -> Result<Option<Collision>, SolveError> {
-        for (i, shape) in self.shapes.iter_mut().enumerate() {
-            let start = leg_start(model, i, &state.q, &state.y_u, TendonUnknown::Gamma);
-            integrate_leg(
-                &model.leg,
-                &start,
-                &mut self.scratch,
-                &mut self.end,
-                Some(shape),
-            )?;
-        }
+        let starts =
+            [0, 1, 2].map(|i| leg_start(model, i, &state.q, &state.y_u, TendonUnknown::Gamma));
+        let (scratch, ends) = (&mut self.scratch, &mut self.ends);
+        integrate_legs(
+            &model.leg,
+            &starts,
+            scratch,
+            ends,
+            None,
+            Some(&mut self.shapes),
+        )?;
         let pose = state.pose();
         let platform = model
             .coupling_points
