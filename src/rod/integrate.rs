@@ -15,6 +15,7 @@ use crate::rod::lanes::{F64x4, Real, cross, dot, mat_vec};
 use crate::rod::leg_model::LegModel;
 pub use crate::rod::rhs::MAX_LEGS;
 use crate::rod::rhs::{RkEmit, RodState, Stage};
+use crate::rod::slots::TendonSlots;
 pub use crate::rod::tangents::MAX_DIRECTIONS;
 use crate::rod::tangents::Tangents;
 use crate::spatial::Frame;
@@ -142,8 +143,8 @@ struct Buffers<T: Real> {
     y_next: RodState<T>,
     y_stage: RodState<T>,
     k: RodState<T>,
-    /// Tendon tensions τ_k \[N\] of each lane.
-    tau: [T; MAX_TENDONS],
+    /// The tendons of each lane in slot order, with their tensions.
+    tendons: TendonSlots<T>,
     /// Tangents of each lane's leg.
     tangents: Vec<LegTangents>,
 }
@@ -157,7 +158,7 @@ impl<T: Real> Buffers<T> {
             y_next: z,
             y_stage: z,
             k: z,
-            tau: [T::zero(); MAX_TENDONS],
+            tendons: TendonSlots::new(),
             tangents: (0..T::LANES).map(|_| LegTangents::new()).collect(),
         }
     }
@@ -385,9 +386,7 @@ fn integrate_lanes<const N: usize, T: Real>(
         for (e, x) in y.r.iter_mut().zip(frame.rotation.iter()) {
             e.set_lane(lane, *x);
         }
-        for (tau, x) in buf.tau.iter_mut().zip(start.tensions) {
-            tau.set_lane(lane, x);
-        }
+        buf.tendons.set_lane(lane, model, &start.tensions);
     }
     buf.y = y;
     if N > 0 {
@@ -426,8 +425,11 @@ fn integrate_lanes<const N: usize, T: Real>(
             r: y.r.map(|e| e.lane(leg)),
             n: lane3(&n_world, leg),
             m: lane3(&m_world, leg),
-            lengths: y.s.map(|e| e.lane(leg)),
+            lengths: [0.0; MAX_TENDONS],
         };
+        for (slot, &k) in buf.tendons.tendon[leg][..nt].iter().enumerate() {
+            end.lengths[k] = y.s[slot].lane(leg);
+        }
         if !end
             .p
             .iter()
@@ -484,7 +486,7 @@ fn rk4_step<const N: usize, T: Real>(
     for (i, &(weight, next)) in STAGES.iter().enumerate() {
         let input = if i == 0 { &buf.y } else { &buf.y_stage };
         buf.stage
-            .eval(model, input, &buf.tau, active, &mut buf.k, N > 0)?;
+            .eval(model, input, &buf.tendons, active, &mut buf.k, N > 0)?;
         let b = weight * h / 6.0;
         if i == 0 {
             buf.y_next.set_sum(&buf.y, T::splat(b), &buf.k, nt);
@@ -495,7 +497,7 @@ fn rk4_step<const N: usize, T: Real>(
             buf.y_stage.set_stage(&buf.y, T::splat(next * h), &buf.k);
         }
         if N > 0 {
-            buf.stage.linearize(model, nd);
+            buf.stage.linearize(model, &buf.tendons, nd);
             for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
                 let d_input = if i == 0 { &*tg.dy } else { &*tg.dy_stage };
                 let mut emit = RkEmit {
@@ -505,7 +507,8 @@ fn rk4_step<const N: usize, T: Real>(
                     first: i == 0,
                     next: (i < 3).then_some((&mut *tg.dy_stage_next, next * h)),
                 };
-                buf.stage.tangents::<N>(leg, model, d_input, &mut emit);
+                buf.stage
+                    .tangents::<N>(leg, model, &buf.tendons, d_input, &mut emit);
                 std::mem::swap(&mut tg.dy_stage, &mut tg.dy_stage_next);
             }
         }
@@ -542,22 +545,23 @@ fn apply_tendon_ends<const N: usize, T: Real>(
         if ending & (1 << k) == 0 {
             continue;
         }
-        let r_k = &model.tendon_offsets[k];
-        let w = y.v + cross(&y.u, &r_k.map(T::splat));
+        let r_lanes = buf.tendons.offsets[k];
+        let w = y.v + cross(&y.u, &r_lanes);
         let len = dot(&w, &w).sqrt();
         let t = w / len;
-        let rt = cross(&r_k.map(T::splat), &t);
-        let tau = buf.tau[k];
+        let rt = cross(&r_lanes, &t);
+        let tau = buf.tendons.tensions[k];
         buf.y.v += inv_se.map(T::splat).component_mul(&t) * tau;
         buf.y.u += inv_bt.map(T::splat).component_mul(&rt) * tau;
         for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
-            let (t, rt) = (lane3(&t, leg), lane3(&rt, leg));
+            let (t, rt, r_k) = (lane3(&t, leg), lane3(&rt, leg), lane3(&r_lanes, leg));
+            let tension_lane = 6 + buf.tendons.tendon[leg][k];
             let (len, tau) = (len.lane(leg), tau.lane(leg));
             let (pre, dy) = (&tg.dy_stage, &mut tg.dy);
             for j in 0..N {
                 let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
                 let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
-                let dw = dv + du.cross(r_k);
+                let dw = dv + du.cross(&r_k);
                 let dforce = (dw - t * t.dot(&dw)) * (tau / len);
                 let jump_v = inv_se.component_mul(&dforce);
                 let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
@@ -566,12 +570,12 @@ fn apply_tendon_ends<const N: usize, T: Real>(
                     dy.u[c][j] += jump_u[c];
                 }
             }
-            // The tension direction of tendon k: ∂(τ t)/∂τ = t.
-            if 6 + k < nd {
+            // The tension direction of the slot's tendon: ∂(τ t)/∂τ = t.
+            if tension_lane < nd {
                 let (jump_v, jump_u) = (inv_se.component_mul(&t), inv_bt.component_mul(&rt));
                 for c in 0..3 {
-                    dy.v[c][6 + k] += jump_v[c];
-                    dy.u[c][6 + k] += jump_u[c];
+                    dy.v[c][tension_lane] += jump_v[c];
+                    dy.u[c][tension_lane] += jump_u[c];
                 }
             }
         }

@@ -6,6 +6,7 @@ pub mod lanes;
 pub mod ldlt6;
 pub mod leg_model;
 pub mod rhs;
+pub mod slots;
 pub mod tangents;
 pub mod tendon;
 

@@ -35,6 +35,7 @@ use crate::error::SolveError;
 use crate::rod::lanes::{Real, cross, dot, fma, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
+use crate::rod::slots::TendonSlots;
 use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
 
 /// Most legs one [`Stage`] holds (the lanes of [`F64x4`](super::lanes::F64x4)).
@@ -185,7 +186,8 @@ impl<T: Real> Stage<T> {
         }
     }
 
-    /// Evaluates y' = f(y) for the tendons in the bit set `active` with tensions `tau` \[N\],
+    /// Evaluates y' = f(y) for the tendon slots in the bit set `active` (tendon data and
+    /// tensions in `tendons`),
     /// writing the derivative of p, R, v, u and s to `out` and keeping what
     /// [`Stage::linearize`] needs if `keep` (a primal-only integration passes `false` and
     /// skips those stores: 12 % fewer instructions per primal leg integration, issue 12).
@@ -198,7 +200,7 @@ impl<T: Real> Stage<T> {
         &mut self,
         model: &LegModel,
         y: &RodState<T>,
-        tau: &[T; MAX_TENDONS],
+        tendons: &TendonSlots<T>,
         active: u32,
         out: &mut RodState<T>,
         keep: bool,
@@ -220,32 +222,26 @@ impl<T: Real> Stage<T> {
                 out.s[k] = T::zero();
                 continue;
             }
-            let r_k = model.tendon_offsets[k].map(T::splat);
+            let r_k = tendons.offsets[k];
             let w = v + cross(&u, &r_k);
             let len = dot(&w, &w).sqrt();
             let t = w / len;
-            let c = tau[k] / len;
+            let c = tendons.tensions[k] / len;
             // A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
             let rt = cross(&r_k, &t);
             // A slack tendon (c = 0) adds nothing: its lanes are left as they are.
             let taut = c.nonzero();
             if T::any(taut) {
-                let (hat_r, hat_sq) = (&model.tendon_hats[k], &model.tendon_hat_squares[k]);
+                let (hat_r, hat_sq) = (&tendons.hats[k], &tendons.hat_squares[k]);
                 let add = |acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x);
                 for i in 0..3 {
                     for j in i..3 {
                         let id = T::splat(if i == j { 1.0 } else { 0.0 });
                         add(&mut blk_a[(i, j)], c * (id - t[i] * t[j]));
-                        add(
-                            &mut blk_c[(i, j)],
-                            c * (T::splat(hat_sq[(i, j)]) - rt[i] * rt[j]),
-                        );
+                        add(&mut blk_c[(i, j)], c * (hat_sq[(i, j)] - rt[i] * rt[j]));
                     }
                     for j in 0..3 {
-                        add(
-                            &mut blk_b[(i, j)],
-                            c * (T::splat(hat_r[(i, j)]) - rt[i] * t[j]),
-                        );
+                        add(&mut blk_b[(i, j)], c * (hat_r[(i, j)] - rt[i] * t[j]));
                     }
                 }
                 let z = cross(&u, &w);
@@ -289,7 +285,7 @@ impl<T: Real> Stage<T> {
     /// Builds H_v, H_u and the tension sources (module doc) at the last [`Stage::eval`],
     /// for the first `directions` sensitivity directions.
     #[inline(always)]
-    pub fn linearize(&mut self, model: &LegModel, directions: usize) {
+    pub fn linearize(&mut self, model: &LegModel, tendons: &TendonSlots<T>, directions: usize) {
         let (u, v, nb, mb) = (&self.u, &self.v, &self.n_body, &self.m_body);
         let (kse, kbt) = (model.k_se.map(T::splat), model.k_bt.map(T::splat));
         let zero = T::zero();
@@ -326,11 +322,14 @@ impl<T: Real> Stage<T> {
             ],
         ];
         // Tendons that are not running here inject nothing in their tension lane.
-        for k in 0..model.n_tendons.min(directions.saturating_sub(6)) {
+        for k in 0..model.n_tendons {
             if self.active & (1 << k) == 0 {
-                for leg in &mut self.inject[..T::LANES] {
-                    for row in leg.iter_mut() {
-                        row[6 + k] = 0.0;
+                for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
+                    let lane = 6 + tendons.tendon[leg][k];
+                    if lane < directions {
+                        for row in inject.iter_mut() {
+                            row[lane] = 0.0;
+                        }
                     }
                 }
             }
@@ -340,19 +339,21 @@ impl<T: Real> Stage<T> {
                 continue;
             }
             let tp = &self.tendons[k];
-            let r = model.tendon_offsets[k].map(T::splat);
+            let r = tendons.offsets[k];
             let y = self.dv + cross(&self.du, &r) + cross(u, &tp.w);
             let (t, c, len) = (&tp.t, tp.c, tp.len);
             let ty = dot(t, &y);
             let q = y - t * ty;
-            let lane = 6 + k;
-            if lane < directions {
+            if directions > 6 {
                 let src = q / len;
                 let moment = cross(&r, &src);
                 for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
-                    for i in 0..3 {
-                        inject[i][lane] = src[i].lane(leg);
-                        inject[3 + i][lane] = moment[i].lane(leg);
+                    let lane = 6 + tendons.tendon[leg][k];
+                    if lane < directions {
+                        for i in 0..3 {
+                            inject[i][lane] = src[i].lane(leg);
+                            inject[3 + i][lane] = moment[i].lane(leg);
+                        }
                     }
                 }
             }
@@ -414,6 +415,7 @@ impl<T: Real> Stage<T> {
         &self,
         leg: usize,
         model: &LegModel,
+        tendons: &TendonSlots<T>,
         d: &Tangents,
         step: &mut RkEmit,
     ) {
@@ -453,7 +455,7 @@ impl<T: Real> Stage<T> {
                     ds[j] = fma(rt.z, d.u[2][j], acc);
                 }
             }
-            step.passive(Row::S(k), &ds);
+            step.passive(Row::S(tendons.tendon[leg][k]), &ds);
         }
         let (rot, v, u) = (self.r.map(|e| e.lane(leg)), lane(&self.v), lane(&self.u));
         for row in 0..3 {
