@@ -313,7 +313,8 @@ impl Factors {
     fn solve(&mut self, from: usize) -> Result<(), AnalysisError> {
         let (n, nq) = (self.n, self.nq);
         let x = &mut self.raw.x;
-        if back_substitute_rows(x, n, n..n + nq + 6, from) && x.w.iter().all(|v| v.is_finite()) {
+        let finite = |x: &LegQr| x.w.as_slice().iter().all(|v| v.is_finite());
+        if back_substitute_rows(x, n, n..n + nq + 6, from) && finite(x) {
             Ok(())
         } else {
             Err(AnalysisError::Singular {
@@ -403,7 +404,7 @@ fn check_inputs(
                 expected: format!("{n}×{cols}"),
             });
         }
-        if !m.iter().all(|x| x.is_finite()) {
+        if !m.as_slice().iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFinite { what });
         }
     }
