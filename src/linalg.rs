@@ -59,16 +59,20 @@ impl DenseLu {
             if best != col {
                 lu.swap_rows(best, col);
             }
-            let pivot = lu[(col, col)];
-            for row in col + 1..n {
-                lu[(row, col)] /= pivot;
+            // Column-major storage: column `col` (the multipliers) and the columns right
+            // of it as slices (the same operations, element by element, as indexing).
+            let (left, right) = lu.as_mut_slice().split_at_mut((col + 1) * n);
+            let multipliers = &mut left[col * n + col..];
+            let pivot = multipliers[0];
+            let multipliers = &mut multipliers[1..];
+            for l in multipliers.iter_mut() {
+                *l /= pivot;
             }
-            for c in col + 1..n {
-                let factor = lu[(col, c)];
+            for column in right.chunks_exact_mut(n) {
+                let factor = column[col];
                 if factor != 0.0 {
-                    for row in col + 1..n {
-                        let l = lu[(row, col)];
-                        lu[(row, c)] -= l * factor;
+                    for (x, l) in column[col + 1..].iter_mut().zip(multipliers.iter()) {
+                        *x -= l * factor;
                     }
                 }
             }
