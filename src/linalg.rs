@@ -86,19 +86,21 @@ impl DenseLu {
         for i in 0..n {
             b.swap_rows(i, self.pivots[i]);
         }
-        for c in 0..n {
+        let b = b.as_mut_slice();
+        let columns = || self.lu.as_slice().chunks_exact(n);
+        for (c, column) in columns().enumerate() {
             let bc = b[c];
             if bc != 0.0 {
-                for r in c + 1..n {
-                    b[r] -= self.lu[(r, c)] * bc;
+                for (x, l) in b[c + 1..].iter_mut().zip(&column[c + 1..]) {
+                    *x -= l * bc;
                 }
             }
         }
-        for c in (0..n).rev() {
-            b[c] /= self.lu[(c, c)];
+        for (c, column) in columns().enumerate().rev() {
+            b[c] /= column[c];
             let bc = b[c];
-            for r in 0..c {
-                b[r] -= self.lu[(r, c)] * bc;
+            for (x, u) in b[..c].iter_mut().zip(&column[..c]) {
+                *x -= u * bc;
             }
         }
     }
