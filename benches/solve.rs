@@ -1,6 +1,7 @@
 //! Parallel robot: boundary residual, exact vs finite-difference Jacobian, the dense
-//! Newton solve, cold FK over 30 seeded reachable actuation vectors, warm IK steps and
-//! the paper's motion sequences.
+//! Newton solve, cold FK over 30 seeded reachable actuation vectors, warm IK steps (one
+//! step of 1 mm; a step along the peer-style path of issue 17) and the paper's motion
+//! sequences.
 
 use std::hint::black_box;
 
@@ -15,7 +16,9 @@ use tdpcr::kinetostatics::{RobotState, Solver};
 use tdpcr::linalg::DenseLu;
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
-use tdpcr::sampling::{fk_motion_sequence, ik_motion_sequence, seeded_reachable_actuations};
+use tdpcr::sampling::{
+    fk_motion_sequence, ik_fine_path, ik_motion_sequence, seeded_reachable_actuations,
+};
 use tdpcr::trajectory::{Targets, run_trajectory};
 
 fn design(file: &str) -> Tdpcr {
@@ -138,6 +141,22 @@ fn bench_solves(c: &mut Criterion) {
                 .solve_ik(black_box(&poses[k % 2]), &w, Some(&last))
                 .unwrap();
             last = sol.state;
+        })
+    });
+    // Warm IK along the peer-style path of issue 17 (200 poses, ≤ 0.63 mm and ≤ 0.32° per
+    // step, ε_b = 1e-10; closed, so it is run round and round): one iteration is one
+    // step, so criterion's figure is the time per step (median and max per step: the
+    // example warm_ik_path).
+    let path = ik_fine_path(&home.pose(), 200);
+    let mut on_path = solver.solve_ik(&path[0], &w, Some(&home)).unwrap().state;
+    let mut k = 0;
+    group.bench_function("ik_fine_path_step", |b| {
+        b.iter(|| {
+            k = (k + 1) % path.len();
+            let sol = solver
+                .solve_ik(black_box(&path[k]), &w, Some(&on_path))
+                .unwrap();
+            on_path = sol.state;
         })
     });
     // The same step from a state this solver did not produce (no prediction).

@@ -2,11 +2,10 @@
 //! (`sampling::ik_motion_sequence`, `sampling::fk_motion_sequence`): 1300 IK poses of
 //! the 6-DoF design mixing translations and rotations, and 1000 FK actuations of the
 //! 9-DoF design, each warm-started from the previous step. Prints per-step statistics.
-use nalgebra::Rotation3;
 use tdpcr::Tdpcr;
 use tdpcr::kinetostatics::Solver;
 use tdpcr::rod::Wrench;
-use tdpcr::sampling::{fk_motion_sequence, ik_motion_sequence};
+use tdpcr::sampling::{fk_motion_sequence, ik_motion_sequence, largest_step};
 use tdpcr::trajectory::{Targets, run_trajectory};
 
 fn design(file: &str) -> Tdpcr {
@@ -18,13 +17,7 @@ fn main() {
     let mut solver = Solver::new(&design("lilge2022.ron")).expect("valid design");
     let home = solver.solve_fk(&[0.0; 6], &w, None).unwrap().state;
     let poses = ik_motion_sequence(&home.pose(), 1300);
-    let (max_dp, max_dr) = poses.windows(2).fold((0.0f64, 0.0f64), |(a, b), w| {
-        let r = Rotation3::from_matrix_unchecked(w[1].rotation * w[0].rotation.transpose());
-        (
-            a.max((w[1].position - w[0].position).norm()),
-            b.max(r.angle()),
-        )
-    });
+    let (max_dp, max_dr) = largest_step(&poses);
     let (steps_ik, stats) = run_trajectory(&mut solver, &Targets::Poses(poses), &w);
     let mut slowest: Vec<(f64, usize, usize)> = steps_ik
         .iter()

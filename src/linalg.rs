@@ -59,16 +59,20 @@ impl DenseLu {
             if best != col {
                 lu.swap_rows(best, col);
             }
-            let pivot = lu[(col, col)];
-            for row in col + 1..n {
-                lu[(row, col)] /= pivot;
+            // Column-major storage: column `col` (the multipliers) and the columns right
+            // of it as slices (the same operations, element by element, as indexing).
+            let (left, right) = lu.as_mut_slice().split_at_mut((col + 1) * n);
+            let multipliers = &mut left[col * n + col..];
+            let pivot = multipliers[0];
+            let multipliers = &mut multipliers[1..];
+            for l in multipliers.iter_mut() {
+                *l /= pivot;
             }
-            for c in col + 1..n {
-                let factor = lu[(col, c)];
+            for column in right.chunks_exact_mut(n) {
+                let factor = column[col];
                 if factor != 0.0 {
-                    for row in col + 1..n {
-                        let l = lu[(row, col)];
-                        lu[(row, c)] -= l * factor;
+                    for (x, l) in column[col + 1..].iter_mut().zip(multipliers.iter()) {
+                        *x -= l * factor;
                     }
                 }
             }
@@ -82,19 +86,21 @@ impl DenseLu {
         for i in 0..n {
             b.swap_rows(i, self.pivots[i]);
         }
-        for c in 0..n {
+        let b = b.as_mut_slice();
+        let columns = || self.lu.as_slice().chunks_exact(n);
+        for (c, column) in columns().enumerate() {
             let bc = b[c];
             if bc != 0.0 {
-                for r in c + 1..n {
-                    b[r] -= self.lu[(r, c)] * bc;
+                for (x, l) in b[c + 1..].iter_mut().zip(&column[c + 1..]) {
+                    *x -= l * bc;
                 }
             }
         }
-        for c in (0..n).rev() {
-            b[c] /= self.lu[(c, c)];
+        for (c, column) in columns().enumerate().rev() {
+            b[c] /= column[c];
             let bc = b[c];
-            for r in 0..c {
-                b[r] -= self.lu[(r, c)] * bc;
+            for (x, u) in b[..c].iter_mut().zip(&column[..c]) {
+                *x -= u * bc;
             }
         }
     }

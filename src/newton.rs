@@ -176,8 +176,9 @@ fn floor_accepts(norm: f64, floor: f64, tolerance: f64) -> bool {
 
 /// ‖(r_i / u_i)_i‖₂ for residual `r` and test units `u`.
 fn test_norm(r: &DVector<f64>, u: &DVector<f64>) -> f64 {
-    r.iter()
-        .zip(u.iter())
+    r.as_slice()
+        .iter()
+        .zip(u.as_slice())
         .map(|(a, b)| (a / b) * (a / b))
         .sum::<f64>()
         .sqrt()
@@ -386,6 +387,8 @@ pub struct NewtonScratch {
     gradient: DVector<f64>,
     step: DVector<f64>,
     work: DVector<f64>,
+    /// Row sums of a Jacobian product (the Cauchy step's J s, the model's W r + W J s).
+    rows: DVector<f64>,
     history: Vec<f64>,
 }
 
@@ -409,6 +412,7 @@ impl NewtonScratch {
             gradient: v(),
             step: v(),
             work: v(),
+            rows: v(),
             history: Vec::with_capacity(max_iterations + 1),
         }
     }
@@ -445,15 +449,20 @@ impl NewtonScratch {
 
 /// ‖D x‖₂ without a temporary.
 fn scaled_norm(x: &DVector<f64>, d: &DVector<f64>) -> f64 {
-    x.iter()
-        .zip(d.iter())
+    x.as_slice()
+        .iter()
+        .zip(d.as_slice())
         .map(|(a, b)| (a * b) * (a * b))
         .sum::<f64>()
         .sqrt()
 }
 
 fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
-    r.iter().zip(w.iter()).map(|(a, b)| (a * b) * (a * b)).sum()
+    r.as_slice()
+        .iter()
+        .zip(w.as_slice())
+        .map(|(a, b)| (a * b) * (a * b))
+        .sum()
 }
 
 /// Solves F(x) = 0 from the start in `x` (overwritten with the solution).
@@ -493,7 +502,7 @@ pub fn solve<S: NonlinearSystem>(
     // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input far
     // outside the design's range, e.g. a base translation of 1e308 m) cannot be improved
     // on: say so.
-    if !(sc.r.norm().is_finite() && sc.jac.iter().all(|v| v.is_finite())) {
+    if !(sc.r.norm().is_finite() && sc.jac.as_slice().iter().all(|v| v.is_finite())) {
         return Err(SolveError::NonFinite {
             stage: "the residual or Jacobian at the start",
         });
@@ -521,10 +530,9 @@ pub fn solve<S: NonlinearSystem>(
         }
         if !sc.factored {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.
-            for i in 0..n {
-                let w = sc.weights[i];
-                for j in 0..n {
-                    sc.jac[(i, j)] *= w;
+            for column in sc.jac.as_mut_slice().chunks_exact_mut(n) {
+                for (a, w) in column.iter_mut().zip(sc.weights.as_slice()) {
+                    *a *= w;
                 }
             }
             for j in 0..n {
@@ -551,7 +559,7 @@ pub fn solve<S: NonlinearSystem>(
             sc.newton_step.copy_from(&sc.work);
             sc.newton_step.neg_mut();
             sc.lu.solve_in_place(&mut sc.newton_step);
-            sc.newton_step.iter().all(|v| v.is_finite())
+            sc.newton_step.as_slice().iter().all(|v| v.is_finite())
         };
         let newton_len = if newton_ok {
             scaled_norm(&sc.newton_step, &sc.diag)
@@ -561,18 +569,20 @@ pub fn solve<S: NonlinearSystem>(
         // Cauchy point along s = −D⁻² g.
         let g_scaled_sq: f64 = sc
             .gradient
+            .as_slice()
             .iter()
-            .zip(sc.diag.iter())
+            .zip(sc.diag.as_slice())
             .map(|(g, d)| (g / d).powi(2))
             .sum();
-        let mut js_sq = 0.0;
-        for i in 0..n {
-            let mut acc = 0.0;
-            for j in 0..n {
-                acc -= sc.jac[(i, j)] * sc.gradient[j] / (sc.diag[j] * sc.diag[j]);
+        // (J s)_i with s = −D⁻² g, each row's sum in the order of j (column by column).
+        sc.rows.fill(0.0);
+        for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
+            let (g, dd) = (sc.gradient[j], sc.diag[j] * sc.diag[j]);
+            for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
+                *acc -= a * g / dd;
             }
-            js_sq += acc * acc;
         }
+        let js_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
         let cauchy_t = if js_sq > 0.0 {
             g_scaled_sq / js_sq
         } else {
@@ -621,14 +631,16 @@ pub fn solve<S: NonlinearSystem>(
             }
             let step_len = scaled_norm(&sc.step, &sc.diag);
             // Predicted reduction of the weighted merit from the linear model.
-            let mut predicted_sq = 0.0;
-            for i in 0..n {
-                let mut acc = sc.r[i] * sc.weights[i];
-                for j in 0..n {
-                    acc += sc.jac[(i, j)] * sc.step[j];
+            // W r + W J step, each row's sum in the order of j (column by column).
+            sc.rows.copy_from(&sc.r);
+            sc.rows.component_mul_assign(&sc.weights);
+            for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
+                let step = sc.step[j];
+                for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
+                    *acc += a * step;
                 }
-                predicted_sq += acc * acc;
             }
+            let predicted_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
             let predicted = merit - predicted_sq;
             system.retract(x, &sc.step, &mut sc.x_trial);
             evaluations += 1;
@@ -642,7 +654,7 @@ pub fn solve<S: NonlinearSystem>(
                 system.residual(&sc.x_trial, &mut sc.r_trial)
             };
             let actual = match evaluated {
-                Ok(()) if sc.r_trial.iter().all(|v| v.is_finite()) => {
+                Ok(()) if sc.r_trial.as_slice().iter().all(|v| v.is_finite()) => {
                     merit - weighted_norm_sq(&sc.r_trial, &sc.weights)
                 }
                 _ => f64::NEG_INFINITY,

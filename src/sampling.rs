@@ -159,6 +159,46 @@ pub fn ik_motion_sequence(start: &Pose, count: usize) -> Vec<Pose> {
         .collect()
 }
 
+/// A closed smooth IK path of `count` platform poses around `start` that moves position
+/// (±12 mm in x, ±7.5 mm in y, ±4 mm in z) and orientation (±0.08 rad about x, ±0.05 rad
+/// about y, ±0.03 rad about z) together, one period per `count` poses, so its last pose
+/// is one step from its first. For `count` = 200 consecutive poses differ by ≤ 0.63 mm
+/// and ≤ 0.32° (the step sizes of the peer comparison of BENCHMARKS.md, issue 17).
+pub fn ik_fine_path(start: &Pose, count: usize) -> Vec<Pose> {
+    use nalgebra::{Rotation3, Vector3};
+    use std::f64::consts::TAU;
+    let r0 = Rotation3::from_matrix_unchecked(start.rotation).scaled_axis();
+    (0..count)
+        .map(|k| {
+            let a = TAU * k as f64 / count as f64;
+            let p = start.position
+                + Vector3::new(0.012 * a.sin(), 0.0075 * (2.0 * a).sin(), 0.004 * a.sin());
+            let r = r0
+                + Vector3::new(
+                    0.08 * a.sin(),
+                    0.05 * (2.0 * a).sin(),
+                    0.03 * (3.0 * a).sin(),
+                );
+            Pose {
+                position: p,
+                rotation: *Rotation3::new(r).matrix(),
+            }
+        })
+        .collect()
+}
+
+/// The largest step of a closed path of poses (the last pose to the first included):
+/// position \[m\] and rotation angle \[rad\].
+pub fn largest_step(poses: &[Pose]) -> (f64, f64) {
+    use nalgebra::Rotation3;
+    let n = poses.len();
+    (0..n).fold((0.0f64, 0.0f64), |(dp, dr), k| {
+        let (a, b) = (&poses[k], &poses[(k + 1) % n]);
+        let r = Rotation3::from_matrix_unchecked(b.rotation * a.rotation.transpose());
+        (dp.max((b.position - a.position).norm()), dr.max(r.angle()))
+    })
+}
+
 /// The FK motion of the paper's Tab. VII for a design with `pairs` tendon pairs per leg:
 /// `count` actuation vectors from q = 0, per leg bending ±3 mm (and ±2 mm for a second
 /// pair) and a common translation of ±20 mm, smooth and periodic, so consecutive vectors
@@ -188,6 +228,26 @@ pub fn fk_motion_sequence(pairs: usize, count: usize) -> Vec<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fine_path_is_closed_and_its_steps_are_those_of_the_peer_comparison() {
+        let start = Pose {
+            position: nalgebra::Vector3::new(0.0, 0.0, 0.2),
+            rotation: nalgebra::Matrix3::identity(),
+        };
+        let path = ik_fine_path(&start, 200);
+        assert_eq!(path.len(), 200);
+        let (dp, dr) = largest_step(&path);
+        // At most the peer's steps, and not much smaller (the path is not trivially slow).
+        assert!((0.55e-3..=0.63e-3).contains(&dp), "{dp} m");
+        assert!(
+            (0.25f64.to_radians()..=0.32f64.to_radians()).contains(&dr),
+            "{dr} rad"
+        );
+        // Twice as many poses: half the step.
+        let (dp2, dr2) = largest_step(&ik_fine_path(&start, 400));
+        assert!((dp2 / dp - 0.5).abs() < 0.01 && (dr2 / dr - 0.5).abs() < 0.01);
+    }
 
     #[test]
     fn the_seeded_stream_keeps_its_values() {

@@ -8,7 +8,8 @@ use common::{central_difference, design_path, relative_error};
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use tdpcr::Tdpcr;
 use tdpcr::analysis::{
-    Analysis, AnalysisError, AnalysisSettings, UnitScaling, analyze_blocks, rcond::rcond,
+    Analysis, AnalysisError, AnalysisSettings, Conditioning, UnitScaling, analyze_blocks,
+    condition_blocks, rcond::rcond,
 };
 use tdpcr::error::Error;
 use tdpcr::kinetostatics::{RobotState, Solver};
@@ -647,6 +648,66 @@ fn analysis_is_repeatable_and_matches_between_solver_and_blocks() {
         );
     }
     assert!(a.rcond.b_xu > 0.0 && a.rcond_scaled.b_xu > a.rcond.b_xu);
+}
+
+/// The sweep's lean measures equal the full analysis' fields bit for bit.
+fn assert_conditioning_is_the_analysis(c: &Conditioning, a: &Analysis) {
+    let bits = |r: &tdpcr::analysis::Rconds| {
+        [r.b_xu, r.b_qu, r.b_u, r.j_p, r.j_o, r.c_p, r.c_o].map(f64::to_bits)
+    };
+    assert_eq!(bits(&c.rcond), bits(&a.rcond));
+    assert_eq!(bits(&c.rcond_scaled), bits(&a.rcond_scaled));
+    assert_eq!(c.singularity, a.singularity);
+    assert_eq!(c.min_tension.to_bits(), a.min_tension.to_bits());
+    assert_eq!(c.stability, a.stability);
+}
+
+#[test]
+fn the_lean_conditioning_equals_the_full_analysis_bit_for_bit() {
+    let settings = AnalysisSettings::default();
+    let extra = Wrench {
+        force: Vector3::new(0.1, 0.0, -0.2),
+        moment: Vector3::new(0.0, 0.01, 0.0),
+    };
+    for (file, q) in [
+        ("lilge2022.ron", Q6.to_vec()),
+        ("lilge2022.ron", vec![0.0; 6]),
+        (
+            "lilge2022_redundant.ron",
+            vec![0.002, -0.001, 0.01, 0.0, 0.003, -0.005, 0.001, 0.0, 0.02],
+        ),
+    ] {
+        let mut s = tight_solver(file);
+        for w in [Wrench::default(), extra] {
+            let state = s.solve_fk(&q, &w, None).unwrap().state;
+            let a = s.analyze(&state, &w, &settings).unwrap();
+            let c = s.condition(&state, &w, &settings).unwrap();
+            assert_conditioning_is_the_analysis(&c, &a);
+            let (_, blocks) = s.blocks_at(&state, &w).unwrap();
+            let blocks = blocks.clone();
+            let c = condition_blocks(s.model(), &blocks, &state.y_u, &settings).unwrap();
+            assert_conditioning_is_the_analysis(&c, &a);
+        }
+    }
+    // The same errors as the full analysis.
+    let (mut s, state, blocks) = home_blocks();
+    let mut b = blocks.clone();
+    b.b_x.columns_mut(3, 3).fill(0.0);
+    let model = s.model();
+    assert_eq!(
+        condition_blocks(model, &b, &state.y_u, &settings).unwrap_err(),
+        analyze_blocks(model, &b, &state.y_u, &settings).unwrap_err()
+    );
+    let mut bad = state.clone();
+    bad.q.pop();
+    assert_eq!(
+        s.condition(&bad, &Wrench::default(), &settings)
+            .unwrap_err()
+            .to_string(),
+        s.analyze(&bad, &Wrench::default(), &settings)
+            .unwrap_err()
+            .to_string()
+    );
 }
 
 #[test]

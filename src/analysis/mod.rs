@@ -45,7 +45,7 @@ use crate::boundary::BoundaryJacobians;
 use crate::model::Model;
 use crate::rod::tendon::tension;
 use lanczos::{Lanczos, Start};
-use qr::{LegQr, Scales, back_substitute};
+use qr::{LegQr, Scales, back_substitute, back_substitute_rows};
 
 pub use crate::error::AnalysisError;
 pub use ellipsoid::Ellipsoid;
@@ -177,6 +177,24 @@ impl Analysis {
     }
 }
 
+/// What the workspace sweep keeps of an analysis ([`condition_blocks`]): every rcond,
+/// the flags, the minimum tension and the stability, without J_IK, the Λ matrices and
+/// the ellipsoids' axes. Each field equals, bit for bit, the field of the same name of
+/// the [`Analysis`] of the same blocks.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Conditioning {
+    /// rcond of the raw SI matrices (as in the paper).
+    pub rcond: Rconds,
+    /// rcond of the unit-scaled matrices ([`UnitScaling`]).
+    pub rcond_scaled: Rconds,
+    /// Singularity flags from the raw rcond values and the tendon states.
+    pub singularity: Singularity,
+    /// Smallest tendon tension over all tendons of all legs \[N\] (0 if any is slack).
+    pub min_tension: f64,
+    /// Stability with the actuators held, from the signs of sym(C) ([`stability`]).
+    pub stability: Stability,
+}
+
 /// Analyses a configuration from its exact blocks (evaluated with γ tendon unknowns at
 /// `y_u`), without any leg integration. `y_u` gives the tendon states (tensions, slack
 /// pairs).
@@ -191,91 +209,175 @@ pub fn analyze_blocks(
     y_u: &[f64],
     settings: &AnalysisSettings,
 ) -> Result<Analysis, AnalysisError> {
-    check_inputs(model, blocks, y_u)?;
-    let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
-    let ny = 3 * nu;
-    let n = ny + 6;
-    let mut lz = Lanczos::new(n + 3);
-    let mut raw = Triangles::new(blocks, nu, None, &mut lz);
-    let scaling = UnitScaling::new(model);
-    let row_scale: Vec<f64> = (0..n).map(|i| 1.0 / scaling.row(i)).collect();
-    let col_scales: [Vec<f64>; 3] = [
-        (0..ny).map(|j| scaling.leg_unknown(j)).collect(),
-        (0..6).map(|c| scaling.pose(c)).collect(),
-        (0..nq).map(|j| scaling.actuation(j)).collect(),
-    ];
-    let cols = [&col_scales[0][..], &col_scales[1], &col_scales[2]];
-    let scales = Scales {
-        rows: &row_scale,
-        cols: &cols,
-    };
-    let scaled = Triangles::new(blocks, nu, Some(scales), &mut lz);
-
+    let mut f = Factors::new(model, blocks, y_u)?;
+    let (ny, n, nq) = (f.ny, f.n, f.nq);
     // [B_u B_x] [δy; δx] = −[B_q B_w] [δq; δw]; with Qᵀ applied, R_x Z = Qᵀ [B_q B_w].
-    if !back_substitute(&mut raw.x, n, n..n + nq + 6) || !raw.x.w.iter().all(|x| x.is_finite()) {
-        return Err(AnalysisError::Singular {
-            matrix: "[B_x B_u]",
-            rcond: raw.rconds[0],
-            undefined: "J_FK, Λ_FK, C and Λ_C",
-        });
-    }
-    let z = &raw.x.w;
+    f.solve(0)?;
+    let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
     let lambda_fk = -z.view((0, n), (ny, nq));
     let compliance = -z.view((ny, n + nq), (6, 6));
     let lambda_c = -z.view((0, n + nq), (ny, 6));
-    let raw_blocks = raw.rconds;
-    let scaled_rconds = scaled.rconds;
-
-    let (j_ik, lambda_ik) = inverse_jacobian(&mut raw, &j_fk, &lambda_fk);
-
-    let ellipsoids = Ellipsoids {
-        j_p: Ellipsoid::of(&j_fk.rows(0, 3).into_owned()),
-        j_o: Ellipsoid::of(&j_fk.rows(3, 3).into_owned()),
-        c_p: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
-        c_o: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
-    };
-    let rcond = Rconds {
-        b_xu: raw_blocks[0],
-        b_qu: raw_blocks[1],
-        b_u: raw_blocks[2],
-        j_p: ellipsoids.j_p.rcond(),
-        j_o: ellipsoids.j_o.rcond(),
-        c_p: ellipsoids.c_p.rcond(),
-        c_o: ellipsoids.c_o.rcond(),
-    };
-    let scaled_j = DMatrix::from_fn(6, nq, |r, c| {
-        j_fk[(r, c)] * scaling.actuation(c) / scaling.pose(r)
-    });
-    let rcond_scaled = Rconds {
-        b_xu: scaled_rconds[0],
-        b_qu: scaled_rconds[1],
-        b_u: scaled_rconds[2],
-        j_p: Ellipsoid::of(&scaled_j.rows(0, 3).into_owned()).rcond(),
-        j_o: Ellipsoid::of(&scaled_j.rows(3, 3).into_owned()).rcond(),
-        // Uniformly scaled blocks: σ_min/σ_max unchanged.
-        c_p: rcond.c_p,
-        c_o: rcond.c_o,
-    };
-    let singularity = Singularity {
-        type_i: rcond.b_qu < settings.type_i_threshold,
-        type_ii: rcond.b_xu < settings.type_ii_threshold,
-        leg: rcond.b_u < settings.leg_threshold || slack_pair(model, y_u),
-    };
+    let (j_ik, lambda_ik) = inverse_jacobian(&mut f.raw, &j_fk, &lambda_fk);
+    let (c, ellipsoids) = f.conditioning(model, y_u, settings, &j_fk, &compliance);
     Ok(Analysis {
         j_fk,
         lambda_fk,
         j_ik,
         lambda_ik,
         lambda_c,
-        rcond,
-        rcond_scaled,
-        singularity,
+        rcond: c.rcond,
+        rcond_scaled: c.rcond_scaled,
+        singularity: c.singularity,
         ellipsoids,
-        min_tension: min_tension(model, y_u),
-        stability: Stability::of_compliance(model, &compliance),
+        min_tension: c.min_tension,
+        stability: c.stability,
         compliance,
     })
+}
+
+/// The [`Conditioning`] part of [`analyze_blocks`] (the same values, bit for bit), at
+/// less cost: of the back substitution for J_FK and C only the six pose rows, no J_IK,
+/// no Λ. For the workspace sweep, which analyses every point it solves.
+///
+/// # Errors
+/// As [`analyze_blocks`] (Λ_FK and Λ_C are not formed: where only they would overflow,
+/// this returns the measures and [`analyze_blocks`] [`AnalysisError::Singular`]).
+pub fn condition_blocks(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    y_u: &[f64],
+    settings: &AnalysisSettings,
+) -> Result<Conditioning, AnalysisError> {
+    let mut f = Factors::new(model, blocks, y_u)?;
+    let (ny, n, nq) = (f.ny, f.n, f.nq);
+    f.solve(ny)?;
+    let z = &f.raw.x.w;
+    let j_fk = -z.view((ny, n), (6, nq));
+    let compliance = -z.view((ny, n + nq), (6, 6));
+    Ok(f.conditioning(model, y_u, settings, &j_fk, &compliance).0)
+}
+
+/// The raw and unit-scaled triangles of one configuration's blocks, the shared first
+/// stage of [`analyze_blocks`] and [`condition_blocks`].
+struct Factors {
+    /// Raw SI triangles; after [`Factors::solve`] the columns right of R_x hold Z.
+    raw: Triangles,
+    /// rcond of the unit-scaled \[B_x B_u\], \[B_q B_u\], B_u.
+    scaled_rconds: [f64; 3],
+    scaling: UnitScaling,
+    /// Leg unknowns of all legs n_y, unknowns n = n_y + 6, actuators n_q.
+    ny: usize,
+    n: usize,
+    nq: usize,
+}
+
+impl Factors {
+    fn new(model: &Model, blocks: &BoundaryJacobians, y_u: &[f64]) -> Result<Self, AnalysisError> {
+        check_inputs(model, blocks, y_u)?;
+        let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
+        let ny = 3 * nu;
+        let n = ny + 6;
+        let mut lz = Lanczos::new(n + 3);
+        let raw = Triangles::new(blocks, nu, None, &mut lz);
+        let scaling = UnitScaling::new(model);
+        let row_scale: Vec<f64> = (0..n).map(|i| 1.0 / scaling.row(i)).collect();
+        let col_scales: [Vec<f64>; 3] = [
+            (0..ny).map(|j| scaling.leg_unknown(j)).collect(),
+            (0..6).map(|c| scaling.pose(c)).collect(),
+            (0..nq).map(|j| scaling.actuation(j)).collect(),
+        ];
+        let cols = [&col_scales[0][..], &col_scales[1], &col_scales[2]];
+        let scales = Scales {
+            rows: &row_scale,
+            cols: &cols,
+        };
+        let scaled_rconds = Triangles::new(blocks, nu, Some(scales), &mut lz).rconds;
+        Ok(Self {
+            raw,
+            scaled_rconds,
+            scaling,
+            ny,
+            n,
+            nq,
+        })
+    }
+
+    /// Solves R_x Z = Qᵀ \[B_q B_w\] for rows `from..n` of Z (rows n_y..n are δx: J_FK
+    /// and C; rows below n_y are Λ_FK and Λ_C; rows below `from` are left partly
+    /// reduced).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Singular`] if R_x has a zero pivot or anything of the factors is
+    /// not finite afterwards.
+    fn solve(&mut self, from: usize) -> Result<(), AnalysisError> {
+        let (n, nq) = (self.n, self.nq);
+        let x = &mut self.raw.x;
+        let finite = |x: &LegQr| x.w.as_slice().iter().all(|v| v.is_finite());
+        if back_substitute_rows(x, n, n..n + nq + 6, from) && finite(x) {
+            Ok(())
+        } else {
+            Err(AnalysisError::Singular {
+                matrix: "[B_x B_u]",
+                rcond: self.raw.rconds[0],
+                undefined: "J_FK, Λ_FK, C and Λ_C",
+            })
+        }
+    }
+
+    /// The rconds, flags, tension and stability from J_FK and C, and the ellipsoids.
+    fn conditioning(
+        &self,
+        model: &Model,
+        y_u: &[f64],
+        settings: &AnalysisSettings,
+        j_fk: &DMatrix<f64>,
+        compliance: &DMatrix<f64>,
+    ) -> (Conditioning, Ellipsoids) {
+        let (raw_blocks, scaled_rconds, scaling) =
+            (self.raw.rconds, self.scaled_rconds, &self.scaling);
+        let ellipsoids = Ellipsoids {
+            j_p: Ellipsoid::of(&j_fk.rows(0, 3).into_owned()),
+            j_o: Ellipsoid::of(&j_fk.rows(3, 3).into_owned()),
+            c_p: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
+            c_o: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
+        };
+        let rcond = Rconds {
+            b_xu: raw_blocks[0],
+            b_qu: raw_blocks[1],
+            b_u: raw_blocks[2],
+            j_p: ellipsoids.j_p.rcond(),
+            j_o: ellipsoids.j_o.rcond(),
+            c_p: ellipsoids.c_p.rcond(),
+            c_o: ellipsoids.c_o.rcond(),
+        };
+        let scaled_j = DMatrix::from_fn(6, self.nq, |r, c| {
+            j_fk[(r, c)] * scaling.actuation(c) / scaling.pose(r)
+        });
+        let rcond_scaled = Rconds {
+            b_xu: scaled_rconds[0],
+            b_qu: scaled_rconds[1],
+            b_u: scaled_rconds[2],
+            j_p: Ellipsoid::of(&scaled_j.rows(0, 3).into_owned()).rcond(),
+            j_o: Ellipsoid::of(&scaled_j.rows(3, 3).into_owned()).rcond(),
+            // Uniformly scaled blocks: σ_min/σ_max unchanged.
+            c_p: rcond.c_p,
+            c_o: rcond.c_o,
+        };
+        let singularity = Singularity {
+            type_i: rcond.b_qu < settings.type_i_threshold,
+            type_ii: rcond.b_xu < settings.type_ii_threshold,
+            leg: rcond.b_u < settings.leg_threshold || slack_pair(model, y_u),
+        };
+        let c = Conditioning {
+            rcond,
+            rcond_scaled,
+            singularity,
+            min_tension: min_tension(model, y_u),
+            stability: Stability::of_compliance(model, compliance),
+        };
+        (c, ellipsoids)
+    }
 }
 
 /// Sizes and finiteness of the inputs.
@@ -302,7 +404,7 @@ fn check_inputs(
                 expected: format!("{n}×{cols}"),
             });
         }
-        if !m.iter().all(|x| x.is_finite()) {
+        if !m.as_slice().iter().all(|x| x.is_finite()) {
             return Err(AnalysisError::NonFinite { what });
         }
     }

@@ -235,6 +235,13 @@ pub(crate) struct Scales<'a> {
 /// substitution), where R is the leading n × n block of `w`. Returns false if a diagonal
 /// entry of R is zero.
 pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool {
+    back_substitute_rows(qr, n, b, 0)
+}
+
+/// [`back_substitute`] for rows `from..n` of the solution only (a column-oriented back
+/// substitution finishes the bottom rows first, so these rows equal those of the full
+/// solve bit for bit); rows above `from` are left partly reduced.
+pub(crate) fn back_substitute_rows(qr: &mut LegQr, n: usize, b: Range<usize>, from: usize) -> bool {
     if qr.triangle(n).is_singular() {
         return false;
     }
@@ -242,7 +249,7 @@ pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool
     let (left, right) = qr.w.as_mut_slice().split_at_mut(b.start * m);
     let inv: Vec<f64> = (0..n).map(|j| 1.0 / left[j * m + j]).collect();
     for x in right[..b.len() * m].chunks_exact_mut(m) {
-        for j in (0..n).rev() {
+        for j in (from..n).rev() {
             let column = &left[j * m..j * m + j + 1];
             let xj = x[j] * inv[j];
             x[j] = xj;

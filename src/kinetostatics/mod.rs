@@ -40,7 +40,7 @@ use std::time::Instant;
 
 use nalgebra::{DVector, Rotation3};
 
-use crate::analysis::{Analysis, AnalysisSettings, analyze_blocks};
+use crate::analysis::{Analysis, AnalysisSettings, Conditioning, analyze_blocks, condition_blocks};
 use crate::boundary::{BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives};
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError};
@@ -354,17 +354,48 @@ impl Solver {
         extra: &Wrench,
         settings: &AnalysisSettings,
     ) -> Result<Analysis, Error> {
-        let v = analysis_violations(self, state, extra, settings);
-        if !v.0.is_empty() {
-            return Err(Error::Input(v));
-        }
-        self.blocks_at(state, extra)?;
+        self.analysis_blocks(state, extra, settings)?;
         Ok(analyze_blocks(
             &self.model,
             &self.blocks,
             &state.y_u,
             settings,
         )?)
+    }
+
+    /// The [`Conditioning`] part of [`Solver::analyze`] (the same values, bit for bit)
+    /// by the leaner [`condition_blocks`]: what the workspace sweep keeps of each point.
+    ///
+    /// # Errors
+    /// As [`Solver::analyze`] (see [`condition_blocks`]).
+    pub fn condition(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        settings: &AnalysisSettings,
+    ) -> Result<Conditioning, Error> {
+        self.analysis_blocks(state, extra, settings)?;
+        Ok(condition_blocks(
+            &self.model,
+            &self.blocks,
+            &state.y_u,
+            settings,
+        )?)
+    }
+
+    /// The checks of [`Solver::analyze`]'s inputs, then the exact blocks at `state`.
+    fn analysis_blocks(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        settings: &AnalysisSettings,
+    ) -> Result<(), Error> {
+        let v = analysis_violations(self, state, extra, settings);
+        if !v.0.is_empty() {
+            return Err(Error::Input(v));
+        }
+        self.blocks_at(state, extra)?;
+        Ok(())
     }
 }
 

@@ -43,6 +43,9 @@ pub struct PointMetrics {
 /// point is flagged near Type II only and counts as not stable (the stiffness K = C⁻¹ is
 /// singular: not positive definite).
 ///
+/// The measures are those of [`Solver::analyze`], bit for bit, from the leaner
+/// [`Solver::condition`] (no J_IK, Λ or ellipsoid axes).
+///
 /// # Errors
 /// As [`Solver::analyze`], except [`AnalysisError::Singular`] (handled as above).
 pub fn point_metrics(
@@ -50,7 +53,7 @@ pub fn point_metrics(
     state: &RobotState,
     settings: &AnalysisSettings,
 ) -> Result<PointMetrics, Error> {
-    match solver.analyze(state, &Wrench::default(), settings) {
+    match solver.condition(state, &Wrench::default(), settings) {
         Ok(a) => Ok(PointMetrics {
             rcond: a.rcond,
             rcond_scaled: a.rcond_scaled,
