@@ -780,8 +780,9 @@ pub trait StepRule<S> {
 /// weighted residual ‖W F‖² falls below (1 − 1e-4 α) of its value at x (Armijo); the
 /// run fails once α < 1e-6, unless the residual (in test units) is within [`FLOOR_FACTOR`]
 /// of its round-off floor, as when [`solve`]'s trust region collapses
-/// ([`NewtonReport::converged_at_floor`]). Every iteration evaluates the Jacobian; stops as
-/// [`solve`] ([`NewtonSettings::outcome`]).
+/// ([`NewtonReport::converged_at_floor`]). Every iteration evaluates the Jacobian, except
+/// at the last iterate: the accepted trial's residual is tested first, so a converged (or
+/// stopped) run ends without it; stops as [`solve`] ([`NewtonSettings::outcome`]).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -804,20 +805,17 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     let mut x_t = x.clone();
     let mut weighted = DVector::zeros(m);
     let mut report = NewtonReport::none();
-    let mut first_norm = f64::NAN;
     let mut merit = |r: &DVector<f64>| {
         weighted.copy_from(r);
         weighted.component_mul_assign(&weights);
         weighted.norm_squared()
     };
+    system.residual_and_jacobian(x, &mut r)?;
+    report.residual_evaluations += 1;
+    report.jacobian_evaluations += 1;
+    report.residual_norm = test_norm(&r, &units);
+    let first_norm = report.residual_norm;
     loop {
-        system.residual_and_jacobian(x, &mut r)?;
-        report.residual_evaluations += 1;
-        report.jacobian_evaluations += 1;
-        report.residual_norm = test_norm(&r, &units);
-        if report.iterations == 0 {
-            first_norm = report.residual_norm;
-        }
         if let Some(end) = settings.outcome(&report, first_norm) {
             return end;
         }
@@ -856,6 +854,16 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             return Err(settings.not_converged(&report, StopReason::LineSearchFailed));
         }
         report.iterations += 1;
+        // The accepted trial's residual decides first: a run that ends here (converged or
+        // stopped) needs no Jacobian at its last iterate.
+        report.residual_norm = test_norm(&trial, &units);
+        if let Some(end) = settings.outcome(&report, first_norm) {
+            return end;
+        }
+        system.residual_and_jacobian(x, &mut r)?;
+        report.residual_evaluations += 1;
+        report.jacobian_evaluations += 1;
+        report.residual_norm = test_norm(&r, &units);
     }
 }
 
