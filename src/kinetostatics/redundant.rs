@@ -159,6 +159,8 @@ pub(super) struct LeastNormStep {
     kkt: DMatrix<f64>,
     rhs: DVector<f64>,
     lu: DenseLu,
+    /// The column scales D⁻¹ of the leg unknowns in the factorized system.
+    scale: Vec<f64>,
 }
 
 impl LeastNormStep {
@@ -169,7 +171,24 @@ impl LeastNormStep {
             kkt: DMatrix::zeros(n, n),
             rhs: DVector::zeros(n),
             lu: DenseLu::new(n),
+            scale: vec![1.0; 3 * model.n_leg_unknowns()],
         }
+    }
+
+    /// The step from the factorized KKT system for residual `r`.
+    fn solve(&mut self, r: &DVector<f64>, weights: &DVector<f64>) -> Vec<f64> {
+        let nu = self.scale.len();
+        let nq = self.rhs.len() - nu - r.len();
+        let rhs = &mut self.rhs;
+        rhs.fill(0.0);
+        for i in 0..r.len() {
+            rhs[nq + nu + i] = -r[i] * weights[i];
+        }
+        self.lu.solve_in_place(rhs);
+        for (j, s) in self.scale.iter().enumerate() {
+            rhs[nq + j] *= s;
+        }
+        rhs.as_slice()[..nq + nu].to_vec()
     }
 }
 
@@ -188,7 +207,7 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
             3 * model.n_leg_unknowns(),
             model.n_residuals(),
         );
-        let (kkt, rhs) = (&mut self.kkt, &mut self.rhs);
+        let kkt = &mut self.kkt;
         // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,
         // C = W B_u D⁻¹ (rows weighted, y columns scaled to unit norm; δy = D⁻¹ δỹ).
         let mut a = system.blocks.b_q.clone();
@@ -197,17 +216,12 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
             a.row_mut(i).scale_mut(weights[i]);
             c.row_mut(i).scale_mut(weights[i]);
         }
-        let scale: Vec<f64> = (0..nu)
-            .map(|j| {
-                let norm = c.column(j).norm();
-                if norm > 0.0 { 1.0 / norm } else { 1.0 }
-            })
-            .collect();
-        for j in 0..nu {
-            c.column_mut(j).scale_mut(scale[j]);
+        for (j, s) in self.scale.iter_mut().enumerate() {
+            let norm = c.column(j).norm();
+            *s = if norm > 0.0 { 1.0 / norm } else { 1.0 };
+            c.column_mut(j).scale_mut(*s);
         }
         kkt.fill(0.0);
-        rhs.fill(0.0);
         for i in 0..nq {
             kkt[(i, i)] = 1.0;
         }
@@ -222,17 +236,22 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
             .copy_from(&a.transpose());
         kkt.view_mut((nq, nq + nu), (nu, m))
             .copy_from(&c.transpose());
-        for i in 0..m {
-            rhs[nq + nu + i] = -r[i] * weights[i];
-        }
         if self.lu.factor(kkt).is_err() {
             return Err(StopReason::SingularLeastNormStep);
         }
-        self.lu.solve_in_place(rhs);
-        for j in 0..nu {
-            rhs[nq + j] *= scale[j];
-        }
-        Ok(rhs.as_slice()[..nq + nu].to_vec())
+        Ok(self.solve(r, weights))
+    }
+
+    /// The KKT system of the last step, factorized, for the new residual.
+    fn chord_step(
+        &mut self,
+        _system: &IkSystem<'_>,
+        _x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        _iteration: usize,
+    ) -> Option<Vec<f64>> {
+        Some(self.solve(r, weights))
     }
 }
 

@@ -168,6 +168,19 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         dq.extend(dy);
         Ok(dq)
     }
+
+    /// The QP step from `x` with the blocks of the last Jacobian evaluation (which the
+    /// system still holds).
+    fn chord_step(
+        &mut self,
+        system: &IkSystem<'_>,
+        x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        iteration: usize,
+    ) -> Option<Vec<f64>> {
+        self.step(system, x, r, weights, iteration).ok()
+    }
 }
 
 /// One Newton step's QP in the scaled variables z = \[δq̃ (n_q), δỹ (n_y)\]:
