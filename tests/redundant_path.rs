@@ -67,7 +67,11 @@ fn follow(redundancy: Redundancy, mode: &str) {
                 } else {
                     limits.tendon_displacement
                 };
-                assert!(q.abs() <= limit, "step {}: q[{j}] = {q} beyond {limit}", k + 1);
+                assert!(
+                    q.abs() <= limit,
+                    "step {}: q[{j}] = {q} beyond {limit}",
+                    k + 1
+                );
             }
         }
         state = s.state;
