@@ -28,6 +28,7 @@
 mod checks;
 mod continuation;
 mod home;
+mod least_change;
 mod predictor;
 mod redundant;
 mod shooting;

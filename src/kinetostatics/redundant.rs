@@ -24,6 +24,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::SOLVER_TENDON_UNKNOWN;
+use super::least_change::{LeastChange, scaled_step_matrix};
 use super::shooting::{row_scales, row_weights};
 use super::state::RobotState;
 use crate::boundary::{
@@ -31,7 +32,6 @@ use crate::boundary::{
     convert_tendon_unknowns,
 };
 use crate::error::{SolveError, StopReason};
-use crate::linalg::DenseLu;
 use crate::model::{Model, Pose};
 use crate::newton::{self, LineSearchSystem, NewtonReport, NewtonSettings, StepRule};
 use crate::rod::Wrench;
@@ -153,42 +153,39 @@ impl LineSearchSystem for IkSystem<'_> {
     }
 }
 
-/// The least-norm Gauss–Newton step: min ½‖δq‖² + ½ε‖D δy‖² subject to
-/// B_q δq + B_u δy = −b, from the KKT system (buffers for one IK size).
+/// The least-norm Gauss–Newton step: min ½‖δq‖² + ½ε‖δỹ‖² subject to
+/// W (B_q δq + B_u δy) = −W b with δy = S δỹ ([`scaled_step_matrix`]: rows weighted, leg
+/// unknowns scaled to unit columns; ε = [`LEAST_NORM_Y_WEIGHT`] keeps the step out of the
+/// null-space directions that move y much and q little), by [`LeastChange`]; the
+/// factorization of the last Jacobian serves the chord steps.
 pub(super) struct LeastNormStep {
-    kkt: DMatrix<f64>,
-    rhs: DVector<f64>,
-    lu: DenseLu,
-    /// The column scales D⁻¹ of the leg unknowns in the factorized system.
-    scale: Vec<f64>,
+    /// The diagonal of the objective: 1 for q, ε for ỹ.
+    p: Vec<f64>,
+    /// The scaled constraint matrix, its column scales S and its factorization, of the
+    /// last Jacobian.
+    factored: Option<(DMatrix<f64>, Vec<f64>, LeastChange)>,
 }
 
 impl LeastNormStep {
-    /// Buffers for the IK of `model`.
+    /// The step rule for the IK of `model`.
     pub(super) fn new(model: &Model) -> Self {
-        let n = model.n_actuators() + 3 * model.n_leg_unknowns() + model.n_residuals();
-        Self {
-            kkt: DMatrix::zeros(n, n),
-            rhs: DVector::zeros(n),
-            lu: DenseLu::new(n),
-            scale: vec![1.0; 3 * model.n_leg_unknowns()],
-        }
+        let (nq, nu) = (model.n_actuators(), 3 * model.n_leg_unknowns());
+        let mut p = vec![LEAST_NORM_Y_WEIGHT; nq + nu];
+        p[..nq].fill(1.0);
+        Self { p, factored: None }
     }
 
-    /// The step from the factorized KKT system for residual `r`.
-    fn solve(&mut self, r: &DVector<f64>, weights: &DVector<f64>) -> Vec<f64> {
-        let nu = self.scale.len();
-        let nq = self.rhs.len() - nu - r.len();
-        let rhs = &mut self.rhs;
-        rhs.fill(0.0);
-        for i in 0..r.len() {
-            rhs[nq + nu + i] = -r[i] * weights[i];
+    /// The step \[δq, δy\] for residual `r` from the factorized system.
+    fn solve(&self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
+        let (a, y_scale, factor) = self.factored.as_ref()?;
+        let b: Vec<f64> = (0..r.len()).map(|i| -r[i] * weights[i]).collect();
+        let zeros = vec![0.0; self.p.len()];
+        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &zeros)?;
+        let nq = self.p.len() - y_scale.len();
+        for (j, s) in y_scale.iter().enumerate() {
+            z[nq + j] *= s;
         }
-        self.lu.solve_in_place(rhs);
-        for (j, s) in self.scale.iter().enumerate() {
-            rhs[nq + j] *= s;
-        }
-        rhs.as_slice()[..nq + nu].to_vec()
+        Some(z.as_slice().to_vec())
     }
 }
 
@@ -201,48 +198,15 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         weights: &DVector<f64>,
         _iteration: usize,
     ) -> Result<Vec<f64>, StopReason> {
-        let model = system.model;
-        let (nq, nu, m) = (
-            model.n_actuators(),
-            3 * model.n_leg_unknowns(),
-            model.n_residuals(),
-        );
-        let kkt = &mut self.kkt;
-        // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,
-        // C = W B_u D⁻¹ (rows weighted, y columns scaled to unit norm; δy = D⁻¹ δỹ).
-        let mut a = system.blocks.b_q.clone();
-        let mut c = system.blocks.b_u.clone();
-        for i in 0..m {
-            a.row_mut(i).scale_mut(weights[i]);
-            c.row_mut(i).scale_mut(weights[i]);
-        }
-        for (j, s) in self.scale.iter_mut().enumerate() {
-            let norm = c.column(j).norm();
-            *s = if norm > 0.0 { 1.0 / norm } else { 1.0 };
-            c.column_mut(j).scale_mut(*s);
-        }
-        kkt.fill(0.0);
-        for i in 0..nq {
-            kkt[(i, i)] = 1.0;
-        }
-        // A small weight on the (scaled) leg unknowns keeps the step out of the
-        // null-space directions that move y much and q little.
-        for j in 0..nu {
-            kkt[(nq + j, nq + j)] = LEAST_NORM_Y_WEIGHT;
-        }
-        kkt.view_mut((nq + nu, 0), (m, nq)).copy_from(&a);
-        kkt.view_mut((nq + nu, nq), (m, nu)).copy_from(&c);
-        kkt.view_mut((0, nq + nu), (nq, m))
-            .copy_from(&a.transpose());
-        kkt.view_mut((nq, nq + nu), (nu, m))
-            .copy_from(&c.transpose());
-        if self.lu.factor(kkt).is_err() {
-            return Err(StopReason::SingularLeastNormStep);
-        }
-        Ok(self.solve(r, weights))
+        let nq = system.model.n_actuators();
+        let (a, y_scale) = scaled_step_matrix(system.blocks, weights, &vec![1.0; nq]);
+        self.factored = LeastChange::factor(&a, &self.p, &vec![false; self.p.len()])
+            .map(|factor| (a, y_scale, factor));
+        self.solve(r, weights)
+            .ok_or(StopReason::SingularLeastNormStep)
     }
 
-    /// The KKT system of the last step, factorized, for the new residual.
+    /// The last Jacobian's factorized system for the new residual.
     fn chord_step(
         &mut self,
         _system: &IkSystem<'_>,
@@ -251,7 +215,7 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         weights: &DVector<f64>,
         _iteration: usize,
     ) -> Option<Vec<f64>> {
-        Some(self.solve(r, weights))
+        self.solve(r, weights)
     }
 }
 

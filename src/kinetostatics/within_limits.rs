@@ -37,11 +37,11 @@ use clarabel::solver::{
 };
 use nalgebra::{DMatrix, DVector};
 
+use super::least_change::{LeastChange, scaled_step_matrix};
 use super::redundant::{IkSystem, LEAST_NORM_Y_WEIGHT, Objective};
 use super::state::RobotState;
 use crate::boundary::BoundaryJacobians;
 use crate::error::{SolveError, StopReason};
-use crate::linalg::DenseLu;
 use crate::model::Model;
 use crate::newton::{NewtonReport, NewtonSettings, StepRule};
 
@@ -213,21 +213,9 @@ impl StepQp {
         limits: &[f64],
         reference: Option<&[f64]>,
     ) -> Self {
-        let (nq, ny, m) = (q.len(), blocks.b_u.ncols(), r.len());
-        let n = nq + ny;
-        let mut a_eq = DMatrix::zeros(m, n);
-        for j in 0..nq {
-            for i in 0..m {
-                a_eq[(i, j)] = weights[i] * blocks.b_q[(i, j)] * limits[j];
-            }
-        }
-        let mut y_scale = vec![1.0; ny];
-        for j in 0..ny {
-            let col = blocks.b_u.column(j).component_mul(weights);
-            let norm = col.norm();
-            y_scale[j] = if norm > 0.0 { 1.0 / norm } else { 1.0 };
-            a_eq.column_mut(nq + j).copy_from(&(col * y_scale[j]));
-        }
+        let (nq, m) = (q.len(), r.len());
+        let (a_eq, y_scale) = scaled_step_matrix(blocks, weights, limits);
+        let n = a_eq.ncols();
         let b_eq = (0..m).map(|i| -weights[i] * r[i]).collect();
         let y_weight = if reference.is_some() {
             REFERENCE_Y_WEIGHT
@@ -274,17 +262,14 @@ impl StepQp {
     /// a KKT system is singular, a set repeats or [`Self::MAX_ACTIVE_SETS`] are spent
     /// (the caller then asks clarabel, which also tells an infeasible QP).
     fn solve_active_set(&self, active: &mut Vec<usize>) -> Option<DVector<f64>> {
-        let n = self.a_eq.ncols();
-        let m = self.a_eq.nrows();
         let mut tried: Vec<Vec<usize>> = Vec::new();
         for _ in 0..Self::MAX_ACTIVE_SETS {
-            let solution = self.kkt(active)?;
-            let z = solution.rows(0, n);
+            let (z, mu) = self.kkt(active)?;
             let mut next: Vec<usize> = active
                 .iter()
-                .enumerate()
-                .filter(|(r, _)| solution[n + m + r] >= 0.0)
-                .map(|(_, &i)| i)
+                .zip(&mu)
+                .filter(|(_, mu)| **mu >= 0.0)
+                .map(|(&i, _)| i)
                 .collect();
             let kept = next.len();
             for i in 0..self.g.nrows() {
@@ -293,7 +278,7 @@ impl StepQp {
                 }
             }
             if kept == active.len() && next.len() == kept {
-                return Some(z.into_owned());
+                return Some(z);
             }
             next.sort_unstable();
             tried.push(std::mem::replace(active, next));
@@ -346,42 +331,39 @@ impl StepQp {
     /// The exact minimizer with the `active` limits as equalities, if it respects the
     /// others.
     fn polish(&self, active: &[usize]) -> Option<DVector<f64>> {
-        let n = self.a_eq.ncols();
-        let z = self.kkt(active)?.rows(0, n).into_owned();
+        let z = self.kkt(active)?.0;
         let slack = DVector::from_column_slice(&self.h) - &self.g * &z;
         let feasible = slack.iter().all(|s| *s >= -1e-9) && z.iter().all(|x| x.is_finite());
         feasible.then_some(z)
     }
 
-    /// The KKT solution \[z (n); λ (m equality rows); μ (one per `active` limit)\] of
-    /// the QP with the `active` limits as equalities, or `None` if its matrix is
-    /// singular. Stationarity P z + c + Aᵀλ + Gᵀμ = 0: a limit holds the step back where
-    /// its μ ≥ 0.
-    fn kkt(&self, active: &[usize]) -> Option<DVector<f64>> {
-        let (m, n) = self.a_eq.shape();
-        let rows_n = m + active.len();
-        let mut rows = DMatrix::zeros(rows_n, n);
-        rows.rows_mut(0, m).copy_from(&self.a_eq);
-        let mut rhs = DVector::zeros(n + rows_n);
-        for i in 0..m {
-            rhs[n + i] = self.b_eq[i];
+    /// The step z (n) and the multiplier μ of each `active` limit, of the QP with the
+    /// `active` limits as equalities ([`LeastChange`]), or `None` if A without the fixed
+    /// columns loses rank (or both limits of one actuator are given). Stationarity
+    /// P z + c + Aᵀλ + Gᵀμ = 0: a limit holds the step back where its μ ≥ 0.
+    fn kkt(&self, active: &[usize]) -> Option<(DVector<f64>, Vec<f64>)> {
+        let n = self.a_eq.ncols();
+        let mut fixed = vec![false; n];
+        let mut values = vec![0.0; n];
+        for &i in active {
+            // Row 2j is δq̃_j ≤ h, row 2j + 1 is −δq̃_j ≤ h.
+            let (j, sign) = (i / 2, if i % 2 == 0 { 1.0 } else { -1.0 });
+            if fixed[j] {
+                return None;
+            }
+            fixed[j] = true;
+            values[j] = sign * self.h[i];
         }
-        for (r, &i) in active.iter().enumerate() {
-            rows.row_mut(m + r).copy_from(&self.g.row(i));
-            rhs[n + m + r] = self.h[i];
-        }
-        for j in 0..n {
-            rhs[j] = -self.c[j];
-        }
-        let mut kkt = DMatrix::zeros(n + rows_n, n + rows_n);
-        kkt.set_partial_diagonal(self.p.iter().copied());
-        kkt.view_mut((n, 0), (rows_n, n)).copy_from(&rows);
-        kkt.view_mut((0, n), (n, rows_n))
-            .copy_from(&rows.transpose());
-        let mut lu = DenseLu::new(n + rows_n);
-        lu.factor(&kkt).ok()?;
-        lu.solve_in_place(&mut rhs);
-        rhs.iter().all(|x| x.is_finite()).then_some(rhs)
+        let (z, lambda) = LeastChange::factor(&self.a_eq, &self.p, &fixed)?
+            .solve(&self.a_eq, &self.p, &self.c, &self.b_eq, &values)?;
+        let mu = active
+            .iter()
+            .map(|&i| {
+                let (j, sign) = (i / 2, if i % 2 == 0 { 1.0 } else { -1.0 });
+                -sign * (self.p[j] * z[j] + self.c[j] + self.a_eq.column(j).dot(&lambda))
+            })
+            .collect();
+        Some((z, mu))
     }
 
     /// δq \[m\] and δy (solver variables) of a scaled step.
