@@ -1089,7 +1089,13 @@ mod tests {
         }
     }
 
-    /// The least-norm step of a 1×2 Jacobian.
+    /// The least-norm step −Jᵀ r / (J Jᵀ) of a 1×2 Jacobian J and residual r.
+    fn least_norm_step([a, b]: [f64; 2], r: f64) -> Vec<f64> {
+        let s = -r / (a * a + b * b);
+        vec![a * s, b * s]
+    }
+
+    /// The least-norm step of [`Stiff`].
     struct LeastNorm;
 
     impl StepRule<Stiff> for LeastNorm {
@@ -1101,9 +1107,7 @@ mod tests {
             _: &DVector<f64>,
             _: usize,
         ) -> Result<Vec<f64>, StopReason> {
-            let [a, b] = system.jac;
-            let s = -r[0] / (a * a + b * b);
-            Ok(vec![a * s, b * s])
+            Ok(least_norm_step(system.jac, r[0]))
         }
     }
 
@@ -1185,9 +1189,7 @@ mod tests {
             _: &DVector<f64>,
             _: usize,
         ) -> Result<Vec<f64>, StopReason> {
-            let [a, b] = system.jac;
-            let s = -r[0] / (a * a + b * b);
-            Ok(vec![a * s, b * s])
+            Ok(least_norm_step(system.jac, r[0]))
         }
         fn chord_step(
             &mut self,
