@@ -5,8 +5,10 @@
 //!
 //! [`Redundancy::LeastNorm`] (the default) takes, at every Gauss–Newton step, the least
 //! change of q and ignores the limits: min ½‖δq‖² + ½ε‖D δy‖² subject to
-//! B_q δq + B_u δy = −b, a KKT system ([`LEAST_NORM_Y_WEIGHT`] = ε on the column-scaled
-//! leg unknowns keeps the step bounded in the null space).
+//! B_q δq + B_u δy = −b, a KKT system solved through its Schur complement
+//! (`least_change.rs`; [`LEAST_NORM_Y_WEIGHT`] = ε on the column-scaled leg unknowns keeps
+//! the step bounded in the null space). Near the solution the driver reuses that
+//! factorization for chord steps ([`newton::CHORD_TAIL`]).
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
 //! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
 //! mathematics are in `within_limits.rs`).
