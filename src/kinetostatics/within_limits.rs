@@ -259,12 +259,16 @@ impl StepQp {
     /// limits as equalities ([`StepQp::kkt`]), then drops the limits whose multiplier is
     /// negative and adds those the step violates. A trial with neither satisfies the KKT
     /// conditions of this strictly convex QP, so its z is the one minimizer. `None` when
-    /// a KKT system is singular, a set repeats or [`Self::MAX_ACTIVE_SETS`] are spent
+    /// a KKT system is singular or its solution misses A z = b
+    /// ([`StepQp::meets_the_equalities`]), a set repeats or [`Self::MAX_ACTIVE_SETS`] are spent
     /// (the caller then asks clarabel, which also tells an infeasible QP).
     fn solve_active_set(&self, active: &mut Vec<usize>) -> Option<DVector<f64>> {
         let mut tried: Vec<Vec<usize>> = Vec::new();
         for _ in 0..Self::MAX_ACTIVE_SETS {
             let (z, mu) = self.kkt(active)?;
+            if !self.meets_the_equalities(&z) {
+                return None;
+            }
             let mut next: Vec<usize> = active
                 .iter()
                 .zip(&mu)
@@ -287,6 +291,14 @@ impl StepQp {
             }
         }
         None
+    }
+
+    /// Whether A z = b holds to 1e-9 (relative to 1 + ‖b‖∞): a trial whose free
+    /// variables cannot meet the linearized boundary conditions (A without the fixed
+    /// columns loses rank, which its Cholesky may not reveal) is no step.
+    fn meets_the_equalities(&self, z: &DVector<f64>) -> bool {
+        let b = DVector::from_column_slice(&self.b_eq);
+        (&self.a_eq * z - &b).amax() <= 1e-9 * (1.0 + b.amax())
     }
 
     /// The step z and its active limits: clarabel's solution, polished on its active set.
@@ -398,4 +410,71 @@ fn dense_to_csc(a: &DMatrix<f64>) -> CscMatrix<f64> {
         colptr.push(nzval.len());
     }
     CscMatrix::new(m, n, colptr, rowval, nzval)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic numbers in [−1, 1) (a linear congruential generator).
+    fn numbers(seed: u64, count: usize) -> Vec<f64> {
+        let mut state = seed;
+        (0..count)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                (state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+            })
+            .collect()
+    }
+
+    /// A QP of 6 rows, 4 actuators (limit 10 mm, q near the limits) and 4 leg unknowns.
+    fn qp(seed: u64) -> StepQp {
+        let (m, nq, ny) = (6, 4, 4);
+        let v = numbers(seed, m * (nq + ny) + m + nq);
+        let blocks = BoundaryJacobians {
+            b_x: DMatrix::zeros(m, 6),
+            b_q: DMatrix::from_column_slice(m, nq, &v[..m * nq]),
+            b_w: DMatrix::zeros(m, 6),
+            b_u: DMatrix::from_column_slice(m, ny, &v[m * nq..m * (nq + ny)]),
+        };
+        let r = DVector::from_column_slice(&v[m * (nq + ny)..m * (nq + ny) + m]) * 0.02;
+        let q: Vec<f64> = v[m * (nq + ny) + m..]
+            .iter()
+            .map(|x| 0.0095 * x.signum() + 0.0005 * x)
+            .collect();
+        StepQp::new(
+            &blocks,
+            &DVector::from_element(m, 1.0),
+            &r,
+            &q,
+            &[0.01; 4],
+            None,
+        )
+    }
+
+    #[test]
+    fn the_active_set_step_is_clarabels_and_respects_the_limits() {
+        let mut with_active_limits = 0;
+        for seed in 0..40 {
+            let qp = qp(seed);
+            let mut active = Vec::new();
+            let Some(z) = qp.solve_active_set(&mut active) else {
+                continue;
+            };
+            let (reference, _) = qp.solve().unwrap();
+            let difference = (&z - &reference).amax();
+            assert!(difference < 1e-7, "seed {seed}: |Δz| = {difference:e}");
+            let slack = DVector::from_column_slice(&qp.h) - &qp.g * &z;
+            assert!(slack.min() >= -1e-12, "seed {seed}: slack {}", slack.min());
+            if !active.is_empty() {
+                with_active_limits += 1;
+            }
+        }
+        assert!(
+            with_active_limits >= 5,
+            "{with_active_limits} QPs with active limits"
+        );
+    }
 }
