@@ -785,15 +785,44 @@ pub trait StepRule<S> {
         weights: &DVector<f64>,
         iteration: usize,
     ) -> Result<Vec<f64>, StopReason>;
+
+    /// A chord step: as [`StepRule::step`] at a new `x` and `r`, with the Jacobian (and
+    /// any factorization) of the last [`StepRule::step`] reused, or `None` when the rule
+    /// has none (default; the driver then evaluates the Jacobian at `x`).
+    fn chord_step(
+        &mut self,
+        system: &S,
+        x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        iteration: usize,
+    ) -> Option<Vec<f64>> {
+        let _ = (system, x, r, weights, iteration);
+        None
+    }
 }
+
+/// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
+/// multiple of the tolerance. An underdetermined system has a manifold of solutions, and
+/// a chord step lands on it elsewhere than a Newton step, by about ‖δx_prev‖ · ‖δx‖ (the
+/// Jacobian's change times the step): chord steps from the first iterate of a warm 1 mm
+/// IK step of the 9-DoF design moved q by 2.9e-9 m; in this tail, by at most 1.4e-12 m
+/// (`tests/redundant_path.rs`).
+pub const CHORD_TAIL: f64 = 1e3;
 
 /// Solves F(x) = 0 from the start in `x` (overwritten with the solution) by Gauss–Newton
 /// steps of `rule`, each shortened by a backtracking line search: α = 1, ½, … until the
 /// weighted residual ‖W F‖² falls below (1 − 1e-4 α) of its value at x (Armijo); the
 /// run fails once α < 1e-6, unless the residual (in test units) is within [`FLOOR_FACTOR`]
 /// of its round-off floor, as when [`solve`]'s trust region collapses
-/// ([`NewtonReport::converged_at_floor`]). Every iteration evaluates the Jacobian; stops as
-/// [`solve`] ([`NewtonSettings::outcome`]).
+/// ([`NewtonReport::converged_at_floor`]). Stops as [`solve`] ([`NewtonSettings::outcome`]).
+///
+/// Jacobians: an accepted trial's residual is tested first, so a converged (or stopped)
+/// run ends without a Jacobian at its last iterate. After a full step (α = 1) that
+/// reduced ‖W F‖ by at least [`NewtonSettings::chord_contraction`] to at most
+/// [`CHORD_TAIL`] × the tolerance (in test units), the next step is a chord step ([`StepRule::chord_step`], the Jacobian reused) taken whole if it contracts
+/// as much again; otherwise (or when the rule has no chord step) the Jacobian is
+/// evaluated at x and the step computed anew, so a chord step never ends a run.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -816,27 +845,52 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     let mut x_t = x.clone();
     let mut weighted = DVector::zeros(m);
     let mut report = NewtonReport::none();
-    let mut first_norm = f64::NAN;
     let mut merit = |r: &DVector<f64>| {
         weighted.copy_from(r);
         weighted.component_mul_assign(&weights);
         weighted.norm_squared()
     };
+    system.residual_and_jacobian(x, &mut r)?;
+    report.residual_evaluations += 1;
+    report.jacobian_evaluations += 1;
+    report.residual_norm = test_norm(&r, &units);
+    let first_norm = report.residual_norm;
+    let contraction_sq = settings.chord_contraction.powi(2);
+    // Whether the Jacobian the rule holds was evaluated at x.
+    let mut fresh = true;
     loop {
-        system.residual_and_jacobian(x, &mut r)?;
-        report.residual_evaluations += 1;
-        report.jacobian_evaluations += 1;
-        report.residual_norm = test_norm(&r, &units);
-        if report.iterations == 0 {
-            first_norm = report.residual_norm;
-        }
         if let Some(end) = settings.outcome(&report, first_norm) {
             return end;
+        }
+        let m0 = merit(&r);
+        if !fresh {
+            // A chord step, taken whole or not at all.
+            let chord = rule.chord_step(system, x, &r, &weights, report.iterations);
+            if let Some(step) = chord {
+                for ((t, x), d) in x_t.iter_mut().zip(x.iter()).zip(&step) {
+                    *t = x + d;
+                }
+                report.residual_evaluations += 1;
+                let ok = system.residual(&x_t, &mut trial).is_ok()
+                    && trial.iter().all(|v| v.is_finite());
+                if ok && merit(&trial) <= contraction_sq * m0 {
+                    std::mem::swap(x, &mut x_t);
+                    std::mem::swap(&mut r, &mut trial);
+                    report.iterations += 1;
+                    report.residual_norm = test_norm(&r, &units);
+                    continue;
+                }
+            }
+            system.residual_and_jacobian(x, &mut r)?;
+            report.residual_evaluations += 1;
+            report.jacobian_evaluations += 1;
+            report.residual_norm = test_norm(&r, &units);
+            fresh = true;
+            continue;
         }
         let step = rule
             .step(system, x, &r, &weights, report.iterations)
             .map_err(|reason| settings.not_converged(&report, reason))?;
-        let m0 = merit(&r);
         let mut alpha = 1.0;
         let accepted = loop {
             if alpha < 1e-6 {
@@ -868,6 +922,22 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             return Err(settings.not_converged(&report, StopReason::LineSearchFailed));
         }
         report.iterations += 1;
+        // The accepted trial's residual decides first: a run that ends here (converged or
+        // stopped) needs no Jacobian at its last iterate.
+        report.residual_norm = test_norm(&trial, &units);
+        let tail = report.residual_norm <= CHORD_TAIL * settings.tolerance;
+        if tail && alpha == 1.0 && merit(&trial) <= contraction_sq * m0 {
+            std::mem::swap(&mut r, &mut trial);
+            fresh = false;
+            continue;
+        }
+        if let Some(end) = settings.outcome(&report, first_norm) {
+            return end;
+        }
+        system.residual_and_jacobian(x, &mut r)?;
+        report.residual_evaluations += 1;
+        report.jacobian_evaluations += 1;
+        report.residual_norm = test_norm(&r, &units);
     }
 }
 
@@ -1031,7 +1101,13 @@ mod tests {
         }
     }
 
-    /// The least-norm step of a 1×2 Jacobian.
+    /// The least-norm step −Jᵀ r / (J Jᵀ) of a 1×2 Jacobian J and residual r.
+    fn least_norm_step([a, b]: [f64; 2], r: f64) -> Vec<f64> {
+        let s = -r / (a * a + b * b);
+        vec![a * s, b * s]
+    }
+
+    /// The least-norm step of [`Stiff`].
     struct LeastNorm;
 
     impl StepRule<Stiff> for LeastNorm {
@@ -1043,9 +1119,7 @@ mod tests {
             _: &DVector<f64>,
             _: usize,
         ) -> Result<Vec<f64>, StopReason> {
-            let [a, b] = system.jac;
-            let s = -r[0] / (a * a + b * b);
-            Ok(vec![a * s, b * s])
+            Ok(least_norm_step(system.jac, r[0]))
         }
     }
 
@@ -1079,6 +1153,91 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("line search"), "{err}");
+    }
+
+    /// x₀² + x₁² = 1: one equation in two unknowns.
+    struct Circle {
+        jac: [f64; 2],
+        jacobians: usize,
+    }
+
+    impl LineSearchSystem for Circle {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &[f64],
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.jac = [2.0 * x[0], 2.0 * x[1]];
+            self.jacobians += 1;
+            self.residual(x, r)
+        }
+        fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = x[0] * x[0] + x[1] * x[1] - 1.0;
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+            sums[0] = self.jac[0].abs() * x[0].abs() + self.jac[1].abs() * x[1].abs();
+        }
+    }
+
+    /// The least-norm step of [`Circle`], with chord steps when `chord`.
+    struct CircleStep {
+        chord: bool,
+        chords: usize,
+    }
+
+    impl StepRule<Circle> for CircleStep {
+        fn step(
+            &mut self,
+            system: &Circle,
+            _: &[f64],
+            r: &DVector<f64>,
+            _: &DVector<f64>,
+            _: usize,
+        ) -> Result<Vec<f64>, StopReason> {
+            Ok(least_norm_step(system.jac, r[0]))
+        }
+        fn chord_step(
+            &mut self,
+            system: &Circle,
+            x: &[f64],
+            r: &DVector<f64>,
+            w: &DVector<f64>,
+            i: usize,
+        ) -> Option<Vec<f64>> {
+            self.chords += 1;
+            self.chord.then(|| self.step(system, x, r, w, i).unwrap())
+        }
+    }
+
+    #[test]
+    fn chord_steps_in_the_tail_save_jacobians_and_no_jacobian_follows_convergence() {
+        let settings = NewtonSettings::default();
+        let run = |chord: bool| {
+            let mut system = Circle {
+                jac: [0.0; 2],
+                jacobians: 0,
+            };
+            let mut rule = CircleStep { chord, chords: 0 };
+            let mut x = vec![1.0, 0.5];
+            let report = solve_with_line_search(&mut system, &mut rule, &mut x, &settings).unwrap();
+            assert!((x[0].hypot(x[1]) - 1.0).abs() < 1e-10, "{x:?}");
+            assert_eq!(report.jacobian_evaluations, system.jacobians);
+            (report, rule.chords)
+        };
+        let (newton, asked) = run(false);
+        // Without chord steps: one Jacobian per step, none at the solution.
+        assert_eq!(newton.jacobian_evaluations, newton.iterations);
+        assert!(asked >= 1, "the driver asked for a chord step in the tail");
+        let (chord, _) = run(true);
+        assert!(chord.jacobian_evaluations < chord.iterations, "{chord:?}");
+        assert!(chord.jacobian_evaluations < newton.jacobian_evaluations);
     }
 
     #[test]

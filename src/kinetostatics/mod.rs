@@ -15,7 +15,8 @@
 //!   the unloaded home;
 //! - `redundant.rs`: IK of the 9-DoF design by the Gauss–Newton driver
 //!   [`crate::newton::solve_with_line_search`] with a least-norm step rule
-//!   ([`Redundancy`]); `within_limits.rs` its QP step rule (cargo feature `qp`).
+//!   ([`Redundancy`]); `within_limits.rs` its QP step rule (cargo feature `qp`);
+//!   `least_change.rs` the equality-constrained least-change step both rules solve.
 //!
 //! A cold start uses the straight home guess of MODEL.md §9 (legs straight, strains
 //! consistent with tensions from a constant-curvature estimate, γ never 0); if that fails
@@ -28,6 +29,7 @@
 mod checks;
 mod continuation;
 mod home;
+mod least_change;
 mod predictor;
 mod redundant;
 mod shooting;

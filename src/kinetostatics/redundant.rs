@@ -5,8 +5,10 @@
 //!
 //! [`Redundancy::LeastNorm`] (the default) takes, at every Gauss–Newton step, the least
 //! change of q and ignores the limits: min ½‖δq‖² + ½ε‖D δy‖² subject to
-//! B_q δq + B_u δy = −b, a KKT system ([`LEAST_NORM_Y_WEIGHT`] = ε on the column-scaled
-//! leg unknowns keeps the step bounded in the null space).
+//! B_q δq + B_u δy = −b, a KKT system solved through its Schur complement
+//! (`least_change.rs`; [`LEAST_NORM_Y_WEIGHT`] = ε on the column-scaled leg unknowns keeps
+//! the step bounded in the null space). Near the solution the driver reuses that
+//! factorization for chord steps ([`newton::CHORD_TAIL`]).
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
 //! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
 //! mathematics are in `within_limits.rs`).
@@ -24,6 +26,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::SOLVER_TENDON_UNKNOWN;
+use super::least_change::{LeastChange, scaled_step_matrix};
 use super::shooting::{row_scales, row_weights};
 use super::state::RobotState;
 use crate::boundary::{
@@ -31,7 +34,6 @@ use crate::boundary::{
     convert_tendon_unknowns,
 };
 use crate::error::{SolveError, StopReason};
-use crate::linalg::DenseLu;
 use crate::model::{Model, Pose};
 use crate::newton::{self, LineSearchSystem, NewtonReport, NewtonSettings, StepRule};
 use crate::rod::Wrench;
@@ -153,23 +155,39 @@ impl LineSearchSystem for IkSystem<'_> {
     }
 }
 
-/// The least-norm Gauss–Newton step: min ½‖δq‖² + ½ε‖D δy‖² subject to
-/// B_q δq + B_u δy = −b, from the KKT system (buffers for one IK size).
+/// The least-norm Gauss–Newton step: min ½‖δq‖² + ½ε‖δỹ‖² subject to
+/// W (B_q δq + B_u δy) = −W b with δy = S δỹ ([`scaled_step_matrix`]: rows weighted, leg
+/// unknowns scaled to unit columns; ε = [`LEAST_NORM_Y_WEIGHT`] keeps the step out of the
+/// null-space directions that move y much and q little), by [`LeastChange`]; the
+/// factorization of the last Jacobian serves the chord steps.
 pub(super) struct LeastNormStep {
-    kkt: DMatrix<f64>,
-    rhs: DVector<f64>,
-    lu: DenseLu,
+    /// The diagonal of the objective: 1 for q, ε for ỹ.
+    p: Vec<f64>,
+    /// The scaled constraint matrix, its column scales S and its factorization, of the
+    /// last Jacobian.
+    factored: Option<(DMatrix<f64>, Vec<f64>, LeastChange)>,
 }
 
 impl LeastNormStep {
-    /// Buffers for the IK of `model`.
+    /// The step rule for the IK of `model`.
     pub(super) fn new(model: &Model) -> Self {
-        let n = model.n_actuators() + 3 * model.n_leg_unknowns() + model.n_residuals();
-        Self {
-            kkt: DMatrix::zeros(n, n),
-            rhs: DVector::zeros(n),
-            lu: DenseLu::new(n),
+        let (nq, nu) = (model.n_actuators(), 3 * model.n_leg_unknowns());
+        let mut p = vec![LEAST_NORM_Y_WEIGHT; nq + nu];
+        p[..nq].fill(1.0);
+        Self { p, factored: None }
+    }
+
+    /// The step \[δq, δy\] for residual `r` from the factorized system.
+    fn solve(&self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
+        let (a, y_scale, factor) = self.factored.as_ref()?;
+        let b: Vec<f64> = (0..r.len()).map(|i| -r[i] * weights[i]).collect();
+        let zeros = vec![0.0; self.p.len()];
+        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &zeros)?;
+        let nq = self.p.len() - y_scale.len();
+        for (j, s) in y_scale.iter().enumerate() {
+            z[nq + j] *= s;
         }
+        Some(z.as_slice().to_vec())
     }
 }
 
@@ -182,57 +200,24 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         weights: &DVector<f64>,
         _iteration: usize,
     ) -> Result<Vec<f64>, StopReason> {
-        let model = system.model;
-        let (nq, nu, m) = (
-            model.n_actuators(),
-            3 * model.n_leg_unknowns(),
-            model.n_residuals(),
-        );
-        let (kkt, rhs) = (&mut self.kkt, &mut self.rhs);
-        // [I 0 Aᵀ; 0 0 Cᵀ; A C 0] [δq; δỹ; λ] = [0; 0; −W b] with A = W B_q,
-        // C = W B_u D⁻¹ (rows weighted, y columns scaled to unit norm; δy = D⁻¹ δỹ).
-        let mut a = system.blocks.b_q.clone();
-        let mut c = system.blocks.b_u.clone();
-        for i in 0..m {
-            a.row_mut(i).scale_mut(weights[i]);
-            c.row_mut(i).scale_mut(weights[i]);
-        }
-        let scale: Vec<f64> = (0..nu)
-            .map(|j| {
-                let norm = c.column(j).norm();
-                if norm > 0.0 { 1.0 / norm } else { 1.0 }
-            })
-            .collect();
-        for j in 0..nu {
-            c.column_mut(j).scale_mut(scale[j]);
-        }
-        kkt.fill(0.0);
-        rhs.fill(0.0);
-        for i in 0..nq {
-            kkt[(i, i)] = 1.0;
-        }
-        // A small weight on the (scaled) leg unknowns keeps the step out of the
-        // null-space directions that move y much and q little.
-        for j in 0..nu {
-            kkt[(nq + j, nq + j)] = LEAST_NORM_Y_WEIGHT;
-        }
-        kkt.view_mut((nq + nu, 0), (m, nq)).copy_from(&a);
-        kkt.view_mut((nq + nu, nq), (m, nu)).copy_from(&c);
-        kkt.view_mut((0, nq + nu), (nq, m))
-            .copy_from(&a.transpose());
-        kkt.view_mut((nq, nq + nu), (nu, m))
-            .copy_from(&c.transpose());
-        for i in 0..m {
-            rhs[nq + nu + i] = -r[i] * weights[i];
-        }
-        if self.lu.factor(kkt).is_err() {
-            return Err(StopReason::SingularLeastNormStep);
-        }
-        self.lu.solve_in_place(rhs);
-        for j in 0..nu {
-            rhs[nq + j] *= scale[j];
-        }
-        Ok(rhs.as_slice()[..nq + nu].to_vec())
+        let nq = system.model.n_actuators();
+        let (a, y_scale) = scaled_step_matrix(system.blocks, weights, &vec![1.0; nq]);
+        self.factored = LeastChange::factor(&a, &self.p, &vec![false; self.p.len()])
+            .map(|factor| (a, y_scale, factor));
+        self.solve(r, weights)
+            .ok_or(StopReason::SingularLeastNormStep)
+    }
+
+    /// The last Jacobian's factorized system for the new residual.
+    fn chord_step(
+        &mut self,
+        _system: &IkSystem<'_>,
+        _x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        _iteration: usize,
+    ) -> Option<Vec<f64>> {
+        self.solve(r, weights)
     }
 }
 

@@ -1,0 +1,90 @@
+//! The redundant (9-DoF) IK along a 30-step path, least-norm and within the limits,
+//! against q computed by the solver before issue 19's speed work (`tests/data/
+//! redundant_path_psi0_q.txt`, from commit c305703): faster steps must land on the same
+//! solutions (q within 1e-9 m) and never leave the limits.
+
+mod common;
+
+use common::design_path;
+use nalgebra::Vector3;
+use tdpcr::Tdpcr;
+use tdpcr::kinetostatics::Solver;
+use tdpcr::model::Pose;
+use tdpcr::redundancy::{Objective, Redundancy};
+use tdpcr::rod::Wrench;
+
+/// The reference rows of `mode` ("free" or "strict"): q per step, in step order.
+fn reference(mode: &str) -> Vec<Vec<f64>> {
+    let path = format!(
+        "{}/tests/data/redundant_path_psi0_q.txt",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .filter(|l| l.starts_with(mode))
+        .map(|l| {
+            l.split_whitespace()
+                .skip(3)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 30, "{mode}: 30 reference steps");
+    rows
+}
+
+/// Runs the path with `redundancy` and compares every step's q with `mode`'s reference.
+fn follow(redundancy: Redundancy, mode: &str) {
+    let d = Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap();
+    let mut solver = Solver::new(&d).unwrap();
+    solver.redundancy = redundancy;
+    let w = Wrench::default();
+    let home = solver.solve_fk(&[0.0; 9], &w, None).unwrap().state;
+    let mut q0 = vec![0.0; 9];
+    q0[1] = -0.0098;
+    let mut state = solver.solve_fk(&q0, &w, Some(&home)).unwrap().state;
+    let start = state.pose();
+    let limits = &d.actuation_limits;
+    let mut worst: f64 = 0.0;
+    for (k, expected) in reference(mode).iter().enumerate() {
+        let target = Pose {
+            position: start.position + Vector3::new(-1e-3 * (k + 1) as f64, 0.0, 0.0),
+            rotation: start.rotation,
+        };
+        let s = solver.solve_ik(&target, &w, Some(&state)).unwrap();
+        for (j, (q, e)) in s.state.q.iter().zip(expected).enumerate() {
+            let difference = (q - e).abs();
+            assert!(
+                difference <= 1e-9,
+                "{mode} step {}: q[{j}] = {q}, reference {e} (difference {difference:e} m)",
+                k + 1
+            );
+            worst = worst.max(difference);
+            if mode == "strict" {
+                let limit = if j % 3 == 2 {
+                    limits.base_translation
+                } else {
+                    limits.tendon_displacement
+                };
+                assert!(
+                    q.abs() <= limit,
+                    "step {}: q[{j}] = {q} beyond {limit}",
+                    k + 1
+                );
+            }
+        }
+        state = s.state;
+    }
+    eprintln!("{mode}: largest |q − q_ref| over 30 steps {worst:e} m");
+}
+
+#[test]
+fn least_norm_steps_along_a_path_land_on_the_reference_solutions() {
+    follow(Redundancy::LeastNorm, "free");
+}
+
+#[test]
+fn within_limits_steps_along_a_path_land_on_the_reference_solutions_within_the_limits() {
+    follow(Redundancy::WithinLimits(Objective::LeastChange), "strict");
+}
