@@ -49,8 +49,8 @@ use crate::error::{Error, SolveError};
 use crate::input_range::{diverged_if_non_finite, parallel_robot_inputs};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonScratch, NewtonSettings};
-use crate::rod::Wrench;
 use crate::rod::tendon::TendonUnknown;
+use crate::rod::{LegShape, Wrench};
 use checks::{
     actuation_violations, analysis_violations, check_init, checked_wrench, pose_violations,
 };
@@ -326,6 +326,20 @@ impl Solver {
             &mut self.blocks,
         )?;
         Ok((r, &self.blocks))
+    }
+
+    /// Starts (or stops) keeping every leg's frames at its disks from each exact-Jacobian
+    /// evaluation ([`BoundaryScratch::record_shapes`]): after [`Solver::blocks_at`],
+    /// [`Solver::analyze`] or [`Solver::condition`] of a state, [`Solver::shapes`] are
+    /// that state's.
+    pub fn record_shapes(&mut self, on: bool) {
+        self.boundary.record_shapes(&self.model, on);
+    }
+
+    /// The legs' frames at their disks from the last exact-Jacobian evaluation, when
+    /// recording ([`Solver::record_shapes`]).
+    pub fn shapes(&self) -> Option<&[LegShape; 3]> {
+        self.boundary.shapes()
     }
 
     /// [`Solver::analyze`] of a solution under the wrench it was solved under.

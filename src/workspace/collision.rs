@@ -155,23 +155,31 @@ impl CollisionChecker {
             None,
             Some(&mut self.shapes),
         )?;
-        let pose = state.pose();
-        let platform = model
-            .coupling_points
-            .map(|c| pose.position + pose.rotation * c);
-        // positions[0] is the base (s = 0), not a disk.
-        let disks = [
-            &self.shapes[0].positions[1..],
-            &self.shapes[1].positions[1..],
-            &self.shapes[2].positions[1..],
-        ];
-        Ok(first_collision(&disks, model.leg.disk_radius, &platform))
+        Ok(first_collision_of(model, state, &self.shapes))
     }
 
     /// Disk centres \[m\] of leg `leg` from the last [`CollisionChecker::check`].
     pub fn disk_centres(&self, leg: usize) -> &[Vector3<f64>] {
         self.shapes[leg].positions.get(1..).unwrap_or(&[])
     }
+}
+
+/// The first collision of a solved `state` whose legs have the frames `shapes` (e.g.
+/// [`Solver::shapes`](crate::kinetostatics::Solver::shapes) after its analysis), if any.
+pub fn first_collision_of(
+    model: &Model,
+    state: &RobotState,
+    shapes: &[LegShape; 3],
+) -> Option<Collision> {
+    let pose = state.pose();
+    let platform = model
+        .coupling_points
+        .map(|c| pose.position + pose.rotation * c);
+    // positions[0] is the base (s = 0), not a disk.
+    let disks = shapes
+        .each_ref()
+        .map(|s| s.positions.get(1..).unwrap_or(&[]));
+    first_collision(&disks, model.leg.disk_radius, &platform)
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
 use crate::rod::Wrench;
 use crate::rod::tendon::tension;
 
-use super::collision::CollisionChecker;
+use super::collision::{CollisionChecker, first_collision_of};
 use super::ends::End;
 use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
 use super::predict::{PREDICTOR_POINTS, predict};
@@ -100,6 +100,7 @@ impl Worker {
         let mut solver = Solver::new(design)?;
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
+        solver.record_shapes(true);
         let collisions = CollisionChecker::new(solver.model());
         Ok(Self {
             solver,
@@ -126,13 +127,17 @@ impl Worker {
         if !model.within_limits(&state.q) {
             return Err(End::Limits);
         }
-        let collision = match self.collisions.check(model, &state) {
-            Ok(c) => c.is_some(),
-            Err(e) => return Err(self.end_of(e.into())),
-        };
         let metrics = match point_metrics(&mut self.solver, &state, &self.analysis) {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
+        };
+        // The analysis integrated the legs at `state` and kept their frames.
+        let collision = match self.solver.shapes() {
+            Some(shapes) => first_collision_of(model, &state, shapes).is_some(),
+            None => match self.collisions.check(model, &state) {
+                Ok(c) => c.is_some(),
+                Err(e) => return Err(self.end_of(e.into())),
+            },
         };
         Ok(Sample {
             state,
