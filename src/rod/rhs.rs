@@ -32,7 +32,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
-use crate::rod::lanes::{Real, cross, dot, fma, mat_vec, tr_mat_vec};
+use crate::rod::lanes::{Real, all_finite, cross, dot, fma, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
 use crate::rod::slots::TendonSlots;
@@ -259,7 +259,7 @@ impl<T: Real> Stage<T> {
             stage: "rod strain system (eq. 5)",
         })?;
         let (dv, du) = factor.solve_blocks(&rhs_v, &rhs_u);
-        if !(dv.iter().chain(du.iter()).all(|e| T::all(e.finite()))) {
+        if !all_finite([dv.x, dv.y, dv.z, du.x, du.y, du.z]) {
             return Err(SolveError::NonFinite {
                 stage: "rod strain derivatives (eq. 5)",
             });
