@@ -281,7 +281,10 @@ impl Real for F64x4 {
 pub fn all_finite<T: Real, const K: usize>(values: [T; K]) -> bool {
     let mut probe = T::zero();
     for x in values {
-        probe += x - x;
+        // Deliberately x − x: the probe, not a zero.
+        #[allow(clippy::eq_op)]
+        let zero_if_finite = x - x;
+        probe += zero_if_finite;
     }
     T::all(probe.finite())
 }
