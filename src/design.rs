@@ -419,6 +419,34 @@ impl Tdpcr {
     }
 }
 
+/// A leg of the reference design's dimensions (MODEL.md §1) with tendons at
+/// `(angle [rad], end [m])`, 5 mm off the backbone: for unit tests of the rod kernel.
+#[cfg(test)]
+pub(crate) fn test_leg(tendons: &[(f64, f64)]) -> Leg {
+    Leg {
+        length: 0.145,
+        backbone_radius: 0.0005,
+        youngs_modulus: 54e9,
+        poisson_ratio: 0.3,
+        backbone_mass: 0.0012,
+        disks: Disks {
+            count: 13,
+            mass: 0.0003,
+            radius: 0.006,
+        },
+        tendon_stiffness: 1000.0,
+        tendons: tendons
+            .iter()
+            .map(|&(angle, end)| Tendon {
+                angle,
+                offset: 0.005,
+                end,
+            })
+            .collect(),
+        integration_steps: DEFAULT_INTEGRATION_STEPS,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

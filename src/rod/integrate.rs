@@ -585,33 +585,10 @@ fn apply_tendon_ends<const N: usize, T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::{Disks, Leg, Tendon};
 
     fn leg() -> LegModel {
-        let tendon = |angle: f64, end: f64| Tendon {
-            angle,
-            offset: 0.005,
-            end,
-        };
-        let leg = Leg {
-            length: 0.145,
-            backbone_radius: 0.0005,
-            youngs_modulus: 54e9,
-            poisson_ratio: 0.3,
-            backbone_mass: 0.0012,
-            disks: Disks {
-                count: 13,
-                mass: 0.0003,
-                radius: 0.006,
-            },
-            tendon_stiffness: 1000.0,
-            tendons: vec![
-                tendon(0.0, 0.145),
-                tendon(std::f64::consts::PI, 0.145),
-                tendon(1.0, 0.08),
-            ],
-            integration_steps: crate::design::DEFAULT_INTEGRATION_STEPS,
-        };
+        let tendons = [(0.0, 0.145), (std::f64::consts::PI, 0.145), (1.0, 0.08)];
+        let leg = crate::design::test_leg(&tendons);
         LegModel::new(&leg, Vector3::new(0.5, 0.0, -9.81))
     }
 

@@ -97,35 +97,11 @@ impl<T: Real> Default for TendonSlots<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::design::{Disks, Leg, Tendon};
 
     #[test]
     fn taut_tendons_come_first_within_groups_of_equal_ends() {
-        let tendon = |angle: f64, end: f64| Tendon {
-            angle,
-            offset: 0.005,
-            end,
-        };
-        let leg = Leg {
-            length: 0.145,
-            backbone_radius: 0.0005,
-            youngs_modulus: 54e9,
-            poisson_ratio: 0.3,
-            backbone_mass: 0.0012,
-            disks: Disks {
-                count: 13,
-                mass: 0.0003,
-                radius: 0.006,
-            },
-            tendon_stiffness: 1000.0,
-            tendons: vec![
-                tendon(0.0, 0.145),
-                tendon(1.0, 0.08),
-                tendon(2.0, 0.145),
-                tendon(3.0, 0.145),
-            ],
-            integration_steps: crate::design::DEFAULT_INTEGRATION_STEPS,
-        };
+        let tendons = [(0.0, 0.145), (1.0, 0.08), (2.0, 0.145), (3.0, 0.145)];
+        let leg = crate::design::test_leg(&tendons);
         let model = LegModel::new(&leg, Vector3::zeros());
         let mut slots = TendonSlots::<f64>::new();
         let tensions = |t: [f64; 4]| std::array::from_fn(|k| t.get(k).copied().unwrap_or(0.0));
