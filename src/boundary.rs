@@ -180,6 +180,27 @@ pub fn convert_tendon_unknowns(
     }
 }
 
+/// Converts the tendon columns of ∂b/∂y_u from γ (the paper's, at the leg unknowns
+/// `y_u` in γ) to the solver's piecewise-linear ζ = γ|γ| (the taut or slack side of
+/// each tendon as at `y_u`): ∂b/∂ζ = ∂b/∂γ / (2|γ|). The columns of y_u start at column
+/// `first` of `jac`. Returns false where some γ is 0 or not finite (∂b/∂γ = 0 there
+/// says nothing about ∂b/∂ζ); `jac` is then partly converted.
+pub fn gamma_columns_to_linear(
+    model: &Model,
+    y_u: &[f64],
+    jac: &mut DMatrix<f64>,
+    first: usize,
+) -> bool {
+    for i in model.tendon_unknown_indices() {
+        let dzeta_dgamma = 2.0 * y_u[i].abs();
+        if !(dzeta_dgamma > 0.0 && dzeta_dgamma.is_finite()) {
+            return false;
+        }
+        jac.column_mut(first + i).unscale_mut(dzeta_dgamma);
+    }
+    true
+}
+
 /// b from the three leg tips.
 fn assemble_residual(model: &Model, p: &BoundaryPoint, ends: &[LegEnd; 3], r: &mut DVector<f64>) {
     let nt = model.n_tendons();

@@ -382,6 +382,12 @@ pub struct NewtonScratch {
     factored: bool,
     /// Whether that factorization succeeded.
     newton_ok: bool,
+    /// Whether `jac` (raw, or weighted and factored in `lu` when `factored`) is an exact
+    /// Jacobian of the last run's system, at a point of that run, and the run converged.
+    reusable: bool,
+    /// Whether the next run may start from that Jacobian
+    /// ([`NewtonScratch::reuse_jacobian_once`]).
+    reuse_next: bool,
     diag: DVector<f64>,
     newton_step: DVector<f64>,
     gradient: DVector<f64>,
@@ -407,6 +413,8 @@ impl NewtonScratch {
             lu: DenseLu::new(n),
             factored: false,
             newton_ok: false,
+            reusable: false,
+            reuse_next: false,
             diag: v(),
             newton_step: v(),
             gradient: v(),
@@ -439,6 +447,33 @@ impl NewtonScratch {
         b.component_mul_assign(&self.weights);
         self.lu.solve_in_place(b);
         b.iter().all(|v| v.is_finite()).then_some(())
+    }
+
+    /// Lets the next [`solve`] start from the Jacobian of the last converged run instead
+    /// of evaluating one: its first step is a chord step with that Jacobian, taken whole
+    /// if it contracts ‖W F‖ by [`NewtonSettings::chord_contraction`] (the run then goes on
+    /// with chord steps until one contracts less, as after any Newton step); otherwise
+    /// the run starts as it would have (the trial costs one residual evaluation, the
+    /// start's residual is evaluated again with the Jacobian). The caller promises that
+    /// the next system is the last one with at most its target moved (the same unknowns,
+    /// rows and weights). One run only: [`solve`] clears the request.
+    pub fn reuse_jacobian_once(&mut self) {
+        self.reuse_next = true;
+    }
+
+    /// Replaces the last run's Jacobian by the one `fill` writes into the given n × n
+    /// matrix (raw: unweighted, in the system's unknowns; e.g. exact blocks evaluated at
+    /// the last solution), for [`NewtonScratch::reuse_jacobian_once`]. If `fill` returns
+    /// false there is no Jacobian to reuse.
+    pub fn set_last_jacobian(&mut self, fill: impl FnOnce(&mut DMatrix<f64>) -> bool) {
+        self.factored = false;
+        self.reusable = fill(&mut self.jac);
+    }
+
+    /// Forgets the last run's Jacobian, so the next [`solve`] evaluates its own whatever
+    /// is requested: a run then depends only on its start.
+    pub fn forget_jacobian(&mut self) {
+        self.reusable = false;
     }
 
     /// Size the buffers were made for.
@@ -495,25 +530,48 @@ pub fn solve<S: NonlinearSystem>(
     system.row_weights(&mut sc.weights);
     fill_test_units(&mut sc.units, |c| system.row_scales(c));
     sc.history.clear();
-    sc.factored = false;
-    // Residual and Jacobian together: a start is rarely converged already (trajectory
-    // steps never are), and a separate residual would cost a primal integration per solve.
-    system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
-    // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input far
-    // outside the design's range, e.g. a base translation of 1e308 m) cannot be improved
-    // on: say so.
-    if !(sc.r.norm().is_finite() && sc.jac.as_slice().iter().all(|v| v.is_finite())) {
-        return Err(SolveError::NonFinite {
-            stage: "the residual or Jacobian at the start",
-        });
-    }
-    let mut norm = test_norm(&sc.r, &sc.units);
-    let mut evaluations = 1;
-    let mut jacobians = 1;
+    let warm = std::mem::take(&mut sc.reuse_next) && sc.reusable;
+    sc.reusable = false;
+    let mut evaluations = 0;
+    let mut jacobians = 0;
     let mut iterations = 0;
-    sc.history.push(norm);
-    let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut radius = 0.0;
+    if warm {
+        match start_from_last_jacobian(system, x, settings, sc) {
+            LastJacobianStart::Converged(report) => {
+                sc.reusable = true;
+                return Ok(report);
+            }
+            LastJacobianStart::Stepped => {
+                evaluations = 2;
+                iterations = 1;
+                let dx = scaled_norm(x, &sc.diag);
+                radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
+            }
+            LastJacobianStart::Declined { evaluations: e } => evaluations = e,
+        }
+    }
+    if iterations == 0 {
+        sc.history.clear();
+        sc.factored = false;
+        // Residual and Jacobian together: a start is rarely converged already (trajectory
+        // steps never are), and a separate residual would cost a primal integration per
+        // solve.
+        system.residual_and_jacobian(x, &mut sc.r, &mut sc.jac)?;
+        // A start whose residual (or its norm) or Jacobian is NaN or infinite (an input
+        // far outside the design's range, e.g. a base translation of 1e308 m) cannot be
+        // improved on: say so.
+        if !(sc.r.norm().is_finite() && sc.jac.as_slice().iter().all(|v| v.is_finite())) {
+            return Err(SolveError::NonFinite {
+                stage: "the residual or Jacobian at the start",
+            });
+        }
+        evaluations += 1;
+        jacobians += 1;
+        sc.history.push(test_norm(&sc.r, &sc.units));
+    }
+    let mut norm = sc.history[sc.history.len() - 1];
+    let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut successes = 0usize;
     // Whether the next trial is expected to contract well (then its Jacobian is not needed).
     let mut contracting = true;
@@ -526,15 +584,12 @@ pub fn solve<S: NonlinearSystem>(
             converged_at_floor: false,
         };
         if let Some(end) = settings.outcome(&report, sc.history[0]) {
+            sc.reusable = end.is_ok();
             return end;
         }
         if !sc.factored {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.
-            for column in sc.jac.as_mut_slice().chunks_exact_mut(n) {
-                for (a, w) in column.iter_mut().zip(sc.weights.as_slice()) {
-                    *a *= w;
-                }
-            }
+            weight_rows(&mut sc.jac, &sc.weights);
             for j in 0..n {
                 let c = sc.jac.column(j).norm();
                 let c = if c > 0.0 { c } else { 1.0 };
@@ -703,6 +758,7 @@ pub fn solve<S: NonlinearSystem>(
                 }
                 let floor = round_off_floor(&sc.jac_trial, x);
                 if floor_accepts(norm, floor, settings.tolerance) {
+                    sc.reusable = true;
                     return Ok(NewtonReport {
                         converged_at_floor: true,
                         ..report
@@ -732,6 +788,86 @@ pub fn solve<S: NonlinearSystem>(
         }
         // Otherwise a chord step: the factorized Jacobian is kept.
     }
+}
+
+/// Multiplies each row i of `jac` by `w[i]`.
+fn weight_rows(jac: &mut DMatrix<f64>, w: &DVector<f64>) {
+    for column in jac.as_mut_slice().chunks_exact_mut(w.len()) {
+        for (a, w) in column.iter_mut().zip(w.as_slice()) {
+            *a *= w;
+        }
+    }
+}
+
+/// How a run requested by [`NewtonScratch::reuse_jacobian_once`] started.
+enum LastJacobianStart {
+    /// The start is converged: the run's report (no iteration, no Jacobian).
+    Converged(NewtonReport),
+    /// One chord step with the last Jacobian was taken: `x`, `sc.r` and the history are
+    /// at the new iterate (two residual evaluations).
+    Stepped,
+    /// `x` is unchanged; the run starts afresh after `evaluations` residual evaluations.
+    Declined { evaluations: usize },
+}
+
+/// The residual at `x` and one chord step with the last run's Jacobian (factored now if
+/// it was not), taken whole if it is a full step within the system's step limit and
+/// contracts ‖W F‖ by [`NewtonSettings::chord_contraction`].
+fn start_from_last_jacobian<S: NonlinearSystem>(
+    system: &mut S,
+    x: &mut DVector<f64>,
+    settings: &NewtonSettings,
+    sc: &mut NewtonScratch,
+) -> LastJacobianStart {
+    let finite = |v: &DVector<f64>| v.as_slice().iter().all(|a| a.is_finite());
+    if system.residual(x, &mut sc.r).is_err() || !finite(&sc.r) {
+        return LastJacobianStart::Declined { evaluations: 1 };
+    }
+    let norm = test_norm(&sc.r, &sc.units);
+    if norm <= settings.tolerance {
+        sc.history.push(norm);
+        return LastJacobianStart::Converged(NewtonReport {
+            iterations: 0,
+            residual_evaluations: 1,
+            jacobian_evaluations: 0,
+            residual_norm: norm,
+            converged_at_floor: false,
+        });
+    }
+    if !sc.factored {
+        weight_rows(&mut sc.jac, &sc.weights);
+        sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+        sc.factored = true;
+        // The column scaling of a run that starts with this Jacobian.
+        for (j, d) in sc.diag.iter_mut().enumerate() {
+            let c = sc.jac.column(j).norm();
+            *d = if c > 0.0 { c } else { 1.0 };
+        }
+    }
+    if !sc.newton_ok {
+        return LastJacobianStart::Declined { evaluations: 1 };
+    }
+    for i in 0..sc.r.len() {
+        sc.newton_step[i] = -(sc.r[i] * sc.weights[i]);
+    }
+    sc.lu.solve_in_place(&mut sc.newton_step);
+    if !finite(&sc.newton_step) || system.step_limit(x, &sc.newton_step) < 1.0 {
+        return LastJacobianStart::Declined { evaluations: 1 };
+    }
+    system.retract(x, &sc.newton_step, &mut sc.x_trial);
+    let evaluated = system.residual(&sc.x_trial, &mut sc.r_trial);
+    let merit = weighted_norm_sq(&sc.r, &sc.weights);
+    let contracted = evaluated.is_ok()
+        && finite(&sc.r_trial)
+        && weighted_norm_sq(&sc.r_trial, &sc.weights) <= settings.chord_contraction.powi(2) * merit;
+    if !contracted {
+        return LastJacobianStart::Declined { evaluations: 2 };
+    }
+    x.copy_from(&sc.x_trial);
+    sc.r.copy_from(&sc.r_trial);
+    sc.history.push(norm);
+    sc.history.push(test_norm(&sc.r, &sc.units));
+    LastJacobianStart::Stepped
 }
 
 /// A system of m nonlinear equations F(x) = 0 in n ≥ m unknowns (an underdetermined
@@ -987,6 +1123,88 @@ mod tests {
         let report = solve(&mut Powell, &mut x, &settings, &mut sc).unwrap();
         assert!(report.residual_norm <= 1e-12);
         assert!((x[0] - 1.098_159_3e-5).abs() < 1e-10, "x = {x}");
+    }
+
+    /// x₀ + 0.1 x₁² = t, x₁ + 0.1 sin x₀ = 2t: a mildly nonlinear system with a target t.
+    struct Shifted(f64);
+
+    impl NonlinearSystem for Shifted {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = x[0] + 0.1 * x[1] * x[1] - self.0;
+            r[1] = x[1] + 0.1 * x[0].sin() - 2.0 * self.0;
+            Ok(())
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.residual(x, r)?;
+            j[(0, 0)] = 1.0;
+            j[(0, 1)] = 0.2 * x[1];
+            j[(1, 0)] = 0.1 * x[0].cos();
+            j[(1, 1)] = 1.0;
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+    }
+
+    #[test]
+    fn a_run_from_the_last_jacobian_takes_chord_steps_or_starts_as_a_fresh_run() {
+        let settings = NewtonSettings {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let mut sc = NewtonScratch::new(2, 60);
+        let mut x = DVector::from_vec(vec![0.0, 0.0]);
+        solve(&mut Shifted(1.0), &mut x, &settings, &mut sc).unwrap();
+        let start = x.clone();
+        // A nearby target: chord steps with the last Jacobian only.
+        let mut fresh = start.clone();
+        let fresh_report = solve(
+            &mut Shifted(1.01),
+            &mut fresh,
+            &settings,
+            &mut NewtonScratch::new(2, 60),
+        )
+        .unwrap();
+        sc.reuse_jacobian_once();
+        let mut reused = start.clone();
+        let report = solve(&mut Shifted(1.01), &mut reused, &settings, &mut sc).unwrap();
+        assert_eq!(report.jacobian_evaluations, 0, "{report:?}");
+        assert!((&reused - &fresh).norm() < 1e-12, "{reused} vs {fresh}");
+        // A Jacobian that does not contract (its sign flipped): the run is the fresh one,
+        // bit for bit, after two more residual evaluations.
+        sc.set_last_jacobian(|j| {
+            j.fill_with_identity();
+            j.neg_mut();
+            true
+        });
+        sc.reuse_jacobian_once();
+        let mut declined = start.clone();
+        let report = solve(&mut Shifted(1.01), &mut declined, &settings, &mut sc).unwrap();
+        assert_eq!(declined, fresh);
+        assert_eq!(report.iterations, fresh_report.iterations);
+        assert_eq!(
+            report.jacobian_evaluations,
+            fresh_report.jacobian_evaluations
+        );
+        assert_eq!(
+            report.residual_evaluations,
+            fresh_report.residual_evaluations + 2
+        );
+        // Without a request (or after forgetting) a run evaluates its own Jacobian.
+        sc.forget_jacobian();
+        sc.reuse_jacobian_once();
+        let mut again = start.clone();
+        let report = solve(&mut Shifted(1.01), &mut again, &settings, &mut sc).unwrap();
+        assert_eq!((again, report), (fresh, fresh_report));
     }
 
     /// x² + 1 = 0: Newton creeps towards the minimum of |F| at x = 0 and never converges.

@@ -18,7 +18,7 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use tdpcr::Tdpcr;
 use tdpcr::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
-    boundary_derivatives_fd, boundary_residual,
+    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns, gamma_columns_to_linear,
 };
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
@@ -217,6 +217,60 @@ fn reference_blocks(
         out.b_u.set_column(c, &column(Input::Unknown(c), h));
     }
     out
+}
+
+/// The γ columns of B_u converted to the solver's ζ ([`gamma_columns_to_linear`]) are
+/// the blocks evaluated in ζ directly, at the same point.
+#[test]
+fn gamma_columns_converted_to_linear_are_the_linear_blocks() {
+    let mut rng = Rng::new(11);
+    for file in ["lilge2022.ron", "lilge2022_redundant.ron"] {
+        let design = Tdpcr::from_ron_file(design_path(file)).unwrap();
+        let model = Model::new(&design);
+        let m = model.n_residuals();
+        let mut sc = BoundaryScratch::new(&model);
+        let (mut by_gamma, mut by_zeta) = (
+            BoundaryJacobians::new(&model),
+            BoundaryJacobians::new(&model),
+        );
+        let mut r = DVector::zeros(m);
+        for _ in 0..3 {
+            let (pose, q, wrench, y_u) = random_point(&model, &mut rng);
+            let mut zeta = y_u.clone();
+            convert_tendon_unknowns(
+                &model,
+                &mut zeta,
+                TendonUnknown::Gamma,
+                TendonUnknown::Linear,
+            );
+            for (y, unknown, out) in [
+                (&y_u, TendonUnknown::Gamma, &mut by_gamma),
+                (&zeta, TendonUnknown::Linear, &mut by_zeta),
+            ] {
+                let p = BoundaryPoint {
+                    pose: &pose,
+                    q: &q,
+                    wrench: &wrench,
+                    y_u: y,
+                    tendon_unknown: unknown,
+                };
+                boundary_derivatives(&model, &mut sc, &p, &mut r, out).unwrap();
+            }
+            let mut converted = by_gamma.b_u.clone();
+            assert!(gamma_columns_to_linear(&model, &y_u, &mut converted, 0));
+            let err = (&converted - &by_zeta.b_u).amax() / by_zeta.b_u.amax();
+            assert!(err < 1e-12, "{file}: relative difference {err:.2e}");
+            // A tendon exactly at γ = 0 has no ζ column to recover.
+            let mut at_kink = y_u.clone();
+            at_kink[model.tendon_unknown_indices().next().unwrap()] = 0.0;
+            assert!(!gamma_columns_to_linear(
+                &model,
+                &at_kink,
+                &mut converted,
+                0
+            ));
+        }
+    }
 }
 
 #[test]

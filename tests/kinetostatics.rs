@@ -15,6 +15,14 @@ fn solver(file: &str) -> Solver {
     Solver::new(&Tdpcr::from_ron_file(design_path(file)).unwrap()).unwrap()
 }
 
+/// max |q_a − q_b| \[m\].
+fn max_q_difference(a: &RobotState, b: &RobotState) -> f64 {
+    a.q.iter()
+        .zip(&b.q)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
 /// Platform equilibrium and joint conditions recomputed from fresh leg integrations,
 /// independently of the boundary residual code. Returns the worst violation in SI units.
 fn independent_check(model: &Model, state: &RobotState, wrench: &Wrench) -> f64 {
@@ -182,47 +190,101 @@ fn warm_newton_converges_quadratically() {
 }
 
 /// A warm step from the solver's own last solution starts from the tangent prediction
-/// and finishes with chord steps: one Jacobian evaluation, and the same solution as plain
-/// Newton from the unpredicted start.
+/// and finishes with chord steps: one Jacobian evaluation, and the same solution as
+/// plain Newton from the unpredicted start. Where the Jacobian of the step before is
+/// reused ([`Solver::reuse_jacobian`]) the steps need fewer Jacobian evaluations in all
+/// and give the same solutions.
 #[test]
 fn warm_steps_from_the_last_solution_are_predicted() {
-    let w = Wrench::default();
-    let mut s = solver("lilge2022.ron");
-    let mut state = s.solve_fk(&[0.0; 6], &w, None).unwrap().state;
-    let mut plain = solver("lilge2022.ron");
-    plain.settings.chord_contraction = 0.0;
-    for k in 1..=4 {
-        let mut pose = state.pose();
-        pose.position += Vector3::new(0.001, -0.0005, 0.0002 * k as f64);
-        pose.rotation = *Rotation3::new(Vector3::new(0.0, 0.01, 0.0)).matrix() * pose.rotation;
-        let predicted = s.solve_ik(&pose, &w, Some(&state)).unwrap();
-        let reference = plain.solve_ik(&pose, &w, Some(&state)).unwrap();
-        if k > 1 {
-            // (The first IK step follows an FK solve: no IK linearization to predict from.)
-            assert_eq!(
-                predicted.report.jacobian_evaluations, 1,
-                "{:?}",
-                predicted.report
-            );
+    let mut jacobians = [0, 0];
+    for reuse in [false, true] {
+        let w = Wrench::default();
+        let mut s = solver("lilge2022.ron");
+        s.reuse_jacobian = reuse;
+        let mut state = s.solve_fk(&[0.0; 6], &w, None).unwrap().state;
+        let mut plain = solver("lilge2022.ron");
+        plain.settings.chord_contraction = 0.0;
+        plain.reuse_jacobian = false;
+        for k in 1..=4 {
+            let mut pose = state.pose();
+            pose.position += Vector3::new(0.001, -0.0005, 0.0002 * k as f64);
+            pose.rotation = *Rotation3::new(Vector3::new(0.0, 0.01, 0.0)).matrix() * pose.rotation;
+            let predicted = s.solve_ik(&pose, &w, Some(&state)).unwrap();
+            let reference = plain.solve_ik(&pose, &w, Some(&state)).unwrap();
+            if k > 1 {
+                // (The first IK step follows an FK solve: no IK linearization to predict
+                // from, no IK Jacobian to reuse.)
+                jacobians[usize::from(reuse)] += predicted.report.jacobian_evaluations;
+                if !reuse {
+                    assert_eq!(
+                        predicted.report.jacobian_evaluations, 1,
+                        "{:?}",
+                        predicted.report
+                    );
+                }
+                assert!(
+                    predicted.report.residual_evaluations < reference.report.residual_evaluations
+                        || predicted.report.jacobian_evaluations
+                            < reference.report.jacobian_evaluations,
+                    "{:?} vs {:?}",
+                    predicted.report,
+                    reference.report
+                );
+            }
+            let dq = max_q_difference(&predicted.state, &reference.state);
             assert!(
-                predicted.report.residual_evaluations < reference.report.residual_evaluations
-                    || predicted.report.jacobian_evaluations
-                        < reference.report.jacobian_evaluations,
-                "{:?} vs {:?}",
-                predicted.report,
-                reference.report
+                dq < 1e-10,
+                "reuse {reuse}, step {k}: q differs by {dq:.2e} m"
             );
+            state = predicted.state;
         }
-        let dq = predicted
-            .state
-            .q
-            .iter()
-            .zip(&reference.state.q)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        assert!(dq < 1e-10, "step {k}: q differs by {dq:.2e} m");
-        state = predicted.state;
     }
+    assert!(jacobians[1] < jacobians[0], "{jacobians:?}");
+}
+
+/// A warm step from the solver's last solution reuses its Jacobian (no evaluation of its
+/// own, the solution within the tolerance); after [`Solver::forget_jacobian`] the same
+/// step depends only on its guess and target: bit for bit what a fresh solver gives
+/// (what keeps the workspace map independent of the thread schedule). Cold solves never
+/// depend on the solve before.
+#[test]
+fn a_solve_after_forget_jacobian_does_not_depend_on_the_solve_before() {
+    let w = Wrench::default();
+    let fresh = || solver("lilge2022.ron");
+    let home = fresh().solve_fk(&[0.0; 6], &w, None).unwrap().state;
+    let target = |dx: f64| {
+        let mut pose = home.pose();
+        pose.position += Vector3::new(dx, 0.002, -0.001);
+        pose
+    };
+    let (mut reusing, mut forgetting) = (fresh(), fresh());
+    let mut first = None;
+    for s in [&mut reusing, &mut forgetting] {
+        first = Some(s.solve_ik(&target(0.002), &w, Some(&home)).unwrap().state);
+    }
+    let first = first.unwrap();
+    forgetting.forget_jacobian();
+    let step = |s: &mut Solver| s.solve_ik(&target(0.003), &w, Some(&first)).unwrap();
+    let (reused, forgot, new) = (
+        step(&mut reusing),
+        step(&mut forgetting),
+        step(&mut fresh()),
+    );
+    assert_eq!((&forgot.state, forgot.report), (&new.state, new.report));
+    assert_eq!(reused.report.jacobian_evaluations, 0, "{:?}", reused.report);
+    assert!(new.report.jacobian_evaluations >= 1, "{:?}", new.report);
+    let dq = max_q_difference(&reused.state, &new.state);
+    assert!(dq < 1e-10, "q differs by {dq:.2e} m");
+    // A cold solve after a history is a fresh solver's cold solve.
+    let cold = |s: &mut Solver| {
+        s.solve_fk(&[0.001, 0.0, -0.001, 0.0, 0.0, 0.0], &w, None)
+            .unwrap()
+    };
+    let (after, first_cold) = (cold(&mut reusing), cold(&mut fresh()));
+    assert_eq!(
+        (&after.state, after.report),
+        (&first_cold.state, first_cold.report)
+    );
 }
 
 #[test]
@@ -370,4 +432,34 @@ fn per_call_settings_match_the_same_solver_settings_and_leave_them_alone() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// The exact blocks of an analysis at a solution seed the next IK step's chord steps
+/// ([`Solver::reuse_blocks_for_ik`]): no Jacobian evaluation of its own, and the
+/// solution of a fresh solve.
+#[test]
+fn the_blocks_of_an_analysis_start_the_next_ik_step() {
+    let w = Wrench::default();
+    let mut s = solver("lilge2022.ron");
+    let home = s.solve_fk(&[0.0; 6], &w, None).unwrap().state;
+    let step = |state: &RobotState, dx: f64| {
+        let mut pose = state.pose();
+        pose.position += Vector3::new(dx, 0.0, 0.0);
+        pose
+    };
+    let first = s
+        .solve_ik(&step(&home, 0.001), &w, Some(&home))
+        .unwrap()
+        .state;
+    let settings = tdpcr::analysis::AnalysisSettings::default();
+    s.condition(&first, &w, &settings).unwrap();
+    s.reuse_blocks_for_ik(&first);
+    let target = step(&first, 0.001);
+    let seeded = s.solve_ik(&target, &w, Some(&first)).unwrap();
+    assert_eq!(seeded.report.jacobian_evaluations, 0, "{:?}", seeded.report);
+    let fresh = solver("lilge2022.ron")
+        .solve_ik(&target, &w, Some(&first))
+        .unwrap();
+    let dq = max_q_difference(&seeded.state, &fresh.state);
+    assert!(dq < 1e-10, "q differs by {dq:.2e} m");
 }

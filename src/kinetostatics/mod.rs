@@ -43,7 +43,10 @@ use std::time::Instant;
 use nalgebra::{DVector, Rotation3};
 
 use crate::analysis::{Analysis, AnalysisSettings, Conditioning, analyze_blocks, condition_blocks};
-use crate::boundary::{BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives};
+use crate::boundary::{
+    BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
+    gamma_columns_to_linear,
+};
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError};
 use crate::input_range::{diverged_if_non_finite, parallel_robot_inputs};
@@ -89,9 +92,24 @@ pub struct Solver {
     /// How IK of the 9-DoF design chooses among its solutions (least-norm steps by
     /// default; [`Redundancy::WithinLimits`] keeps q within its limits).
     pub redundancy: Redundancy,
+    /// Whether a warm square solve (FK, or IK of the 6-DoF design, with the exact
+    /// Jacobian) whose guess is this solver's last solution (a path step, as for the
+    /// tangent predictor) starts from the last solve's Jacobian instead of evaluating its
+    /// own (see [`NewtonScratch::reuse_jacobian_once`]): such a step then costs residual
+    /// evaluations only, while that Jacobian still contracts. On by default; such steps
+    /// then differ from a fresh solver's within the tolerance. Solves from any other
+    /// guess, and cold ones, do not depend on earlier solves (except as
+    /// [`Solver::reuse_blocks_for_ik`] asks).
+    pub reuse_jacobian: bool,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
     /// (the tangent predictor of warm starts from it).
     last: Option<LastSolve>,
+    /// Which square system (FK: true, IK: false) the Jacobian in `newton` belongs to,
+    /// if its last run converged on the unscaled model.
+    newton_system: Option<bool>,
+    /// Whether [`Solver::reuse_blocks_for_ik`] put an analysis' blocks in `newton` for
+    /// the next IK solve, whatever its guess.
+    seeded: bool,
 }
 
 impl Solver {
@@ -113,7 +131,10 @@ impl Solver {
             settings,
             jacobian: JacobianMethod::Exact,
             redundancy: Redundancy::LeastNorm,
+            reuse_jacobian: true,
             last: None,
+            newton_system: None,
+            seeded: false,
         })
     }
 
@@ -276,6 +297,40 @@ impl Solver {
             guess,
         );
         finish(result, start, extra, &self.model, None)
+    }
+
+    /// Forgets the last solve's Jacobian, so the next solve neither reuses it
+    /// ([`Solver::reuse_jacobian`], [`Solver::reuse_blocks_for_ik`]) nor predicts from
+    /// it: its result then depends only on its guess and target, bit for bit as a fresh
+    /// solver's (e.g. each ray of a parallel sweep, whatever the worker solved before).
+    pub fn forget_jacobian(&mut self) {
+        self.newton_system = None;
+        self.seeded = false;
+        self.last = None;
+        self.newton.forget_jacobian();
+    }
+
+    /// Lets the next IK solve of the 6-DoF design start from the exact blocks of the last
+    /// [`Solver::blocks_at`] (or [`Solver::analyze`], [`Solver::condition`]) at `state`
+    /// instead of the last Newton run's Jacobian ([`Solver::reuse_jacobian`]): after an
+    /// analysis of each solution on a path, the next step's chord steps use the
+    /// Jacobian at the last solution. Does nothing for the redundant design (its IK is
+    /// not square), with [`Solver::reuse_jacobian`] off, or where a tendon unknown of
+    /// `state` is 0 (the blocks' γ columns then say nothing about the solver's ζ).
+    pub fn reuse_blocks_for_ik(&mut self, state: &RobotState) {
+        if self.model.pairs > 1 || !self.reuse_jacobian || self.jacobian != JacobianMethod::Exact {
+            return;
+        }
+        let (blocks, model) = (&self.blocks, &self.model);
+        let nq = model.n_actuators();
+        self.newton.set_last_jacobian(|jac| {
+            jac.columns_mut(0, nq).copy_from(&blocks.b_q);
+            jac.columns_mut(nq, blocks.b_u.ncols())
+                .copy_from(&blocks.b_u);
+            gamma_columns_to_linear(model, &state.y_u, jac, nq)
+        });
+        self.newton_system = Some(false);
+        self.seeded = true;
     }
 
     /// Checks that a warm start (e.g. read from a file before a run of solves) fits this

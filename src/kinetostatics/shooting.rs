@@ -74,6 +74,17 @@ pub(super) fn run_with(
         None
     };
     solver.last = None;
+    let forward = matches!(problem, Problem::Forward { .. });
+    if scaled.is_none()
+        && solver.reuse_jacobian
+        && solver.jacobian == JacobianMethod::Exact
+        && solver.newton_system == Some(forward)
+        && (from_last || solver.seeded)
+    {
+        solver.newton.reuse_jacobian_once();
+    }
+    solver.newton_system = None;
+    solver.seeded = false;
     let mut system = ShootingSystem {
         model,
         boundary: &mut solver.boundary,
@@ -93,6 +104,9 @@ pub(super) fn run_with(
         },
         None => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
     }?;
+    if scaled.is_none() {
+        solver.newton_system = Some(forward);
+    }
     let mut y_u: Vec<f64> = x.rows(n_head, n_u).iter().copied().collect();
     convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
     let state = match problem {
@@ -115,7 +129,7 @@ pub(super) fn run_with(
         solver.last = Some(LastSolve {
             state: state.clone(),
             wrench: *wrench,
-            forward: matches!(problem, Problem::Forward { .. }),
+            forward,
         });
     }
     Ok((state, report))

@@ -131,6 +131,8 @@ impl Worker {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
         };
+        // The next step's chord steps start from the exact Jacobian at this solution.
+        self.solver.reuse_blocks_for_ik(&state);
         // The analysis integrated the legs at `state` and kept their frames.
         let collision = match self.solver.shapes() {
             Some(shapes) => first_collision_of(model, &state, shapes).is_some(),
@@ -234,6 +236,10 @@ impl Worker {
         let z = origin.state.position[2];
         let rotation = settings.rotation();
         let max_steps = (max_radius(model) / settings.step).ceil() as usize;
+        // Within the ray each step may start from the Jacobian of the step before; the
+        // first evaluates its own, so the ray does not depend on what this worker solved
+        // before (the map is the same for any thread count and schedule).
+        self.solver.forget_jacobian();
         let mut samples: Vec<Sample> = Vec::new();
         for i in 1..=max_steps {
             let r = i as f64 * settings.step;
