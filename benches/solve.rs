@@ -159,6 +159,21 @@ fn bench_solves(c: &mut Criterion) {
             on_path = sol.state;
         })
     });
+    // The same path without reusing the last step's Jacobian (each step evaluates its
+    // own, as before issue 17's reuse): the ratio within one run.
+    let mut own = Solver::new(&d).unwrap();
+    own.reuse_jacobian = false;
+    let mut on_own_path = own.solve_ik(&path[0], &w, Some(&home)).unwrap().state;
+    let mut k = 0;
+    group.bench_function("ik_fine_path_step_own_jacobians", |b| {
+        b.iter(|| {
+            k = (k + 1) % path.len();
+            let sol = own
+                .solve_ik(black_box(&path[k]), &w, Some(&on_own_path))
+                .unwrap();
+            on_own_path = sol.state;
+        })
+    });
     // The same step from a state this solver did not produce (no prediction).
     group.bench_function("ik_warm_step_1mm_unpredicted", |b| {
         b.iter_batched(
@@ -184,6 +199,17 @@ fn bench_solves(c: &mut Criterion) {
     let mut solver9 = Solver::new(&d9).unwrap();
     let fk = fk_motion_sequence(solver9.model().pairs, 1000);
     group.bench_function("fk_motion_1000_steps_9dof", |b| {
+        b.iter(|| {
+            run_trajectory(
+                &mut solver9,
+                black_box(&Targets::Actuations(fk.clone())),
+                &w,
+            )
+            .1
+        })
+    });
+    solver9.reuse_jacobian = false;
+    group.bench_function("fk_motion_1000_steps_9dof_own_jacobians", |b| {
         b.iter(|| {
             run_trajectory(
                 &mut solver9,
