@@ -40,7 +40,7 @@ mod within_limits;
 
 use std::time::Instant;
 
-use nalgebra::{DVector, Rotation3};
+use nalgebra::{DMatrix, DVector, Rotation3};
 
 use crate::analysis::{Analysis, AnalysisSettings, Conditioning, analyze_blocks, condition_blocks};
 use crate::boundary::{
@@ -318,19 +318,48 @@ impl Solver {
     /// not square), with [`Solver::reuse_jacobian`] off, or where a tendon unknown of
     /// `state` is 0 (the blocks' γ columns then say nothing about the solver's ζ).
     pub fn reuse_blocks_for_ik(&mut self, state: &RobotState) {
-        if self.model.pairs > 1 || !self.reuse_jacobian || self.jacobian != JacobianMethod::Exact {
+        if !self.reuses_ik_jacobians() {
             return;
         }
         let (blocks, model) = (&self.blocks, &self.model);
-        let nq = model.n_actuators();
-        self.newton.set_last_jacobian(|jac| {
-            jac.columns_mut(0, nq).copy_from(&blocks.b_q);
-            jac.columns_mut(nq, blocks.b_u.ncols())
-                .copy_from(&blocks.b_u);
-            gamma_columns_to_linear(model, &state.y_u, jac, nq)
+        self.newton
+            .set_last_jacobian(|jac| ik_jacobian(model, blocks, &state.y_u, jac));
+        self.newton_system = Some(false);
+        self.seeded = true;
+    }
+
+    /// The Jacobian of the IK of the 6-DoF design in the solver's unknowns, \[B_q B_u\]
+    /// with ζ tendon columns, from the last [`Solver::blocks_at`] (or
+    /// [`Solver::analyze`], [`Solver::condition`]) at `state`, written into `jac`
+    /// (n × n, n = [`Model::n_residuals`]): what [`Solver::reuse_blocks_for_ik`] starts
+    /// from, for callers that combine several (e.g. extrapolate them along a path and
+    /// hand the result to [`Solver::reuse_ik_jacobian`]). False (and `jac` partly
+    /// written) where a tendon unknown of `state` is 0, or for the redundant design.
+    pub fn ik_jacobian_from_blocks(&self, state: &RobotState, jac: &mut DMatrix<f64>) -> bool {
+        self.model.pairs == 1 && ik_jacobian(&self.model, &self.blocks, &state.y_u, jac)
+    }
+
+    /// Lets the next IK solve of the 6-DoF design start from `jac` (the IK Jacobian in
+    /// the solver's unknowns, as [`Solver::ik_jacobian_from_blocks`] writes it, or an
+    /// approximation of it at the next solution): its first step is a chord step with
+    /// it, kept only if it contracts the residual tenfold. Conditions as
+    /// [`Solver::reuse_blocks_for_ik`].
+    pub fn reuse_ik_jacobian(&mut self, jac: &DMatrix<f64>) {
+        if !self.reuses_ik_jacobians() {
+            return;
+        }
+        self.newton.set_last_jacobian(|own| {
+            own.copy_from(jac);
+            jac.iter().all(|v| v.is_finite())
         });
         self.newton_system = Some(false);
         self.seeded = true;
+    }
+
+    /// Whether IK solves may start from a given Jacobian: the square IK (6-DoF design)
+    /// with the exact Jacobian and [`Solver::reuse_jacobian`] on.
+    fn reuses_ik_jacobians(&self) -> bool {
+        self.model.pairs == 1 && self.reuse_jacobian && self.jacobian == JacobianMethod::Exact
     }
 
     /// Checks that a warm start (e.g. read from a file before a run of solves) fits this
@@ -468,6 +497,21 @@ impl Solver {
         self.blocks_at(state, extra)?;
         Ok(())
     }
+}
+
+/// \[B_q B_u\] of `blocks` (γ tendon columns, at `y_u` in γ) with the tendon columns
+/// converted to the solver's ζ, into `jac`; false where some γ is 0.
+fn ik_jacobian(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    y_u: &[f64],
+    jac: &mut DMatrix<f64>,
+) -> bool {
+    let nq = model.n_actuators();
+    jac.columns_mut(0, nq).copy_from(&blocks.b_q);
+    jac.columns_mut(nq, blocks.b_u.ncols())
+        .copy_from(&blocks.b_u);
+    gamma_columns_to_linear(model, y_u, jac, nq)
 }
 
 /// `state` moved to `pose` (its q and y_u kept): the start of an IK from a warm start.

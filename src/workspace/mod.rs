@@ -55,6 +55,7 @@ pub mod files;
 pub mod metrics;
 
 mod cells;
+mod chord_jacobian;
 mod ends;
 mod plane;
 mod predict;

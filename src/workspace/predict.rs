@@ -28,14 +28,9 @@ pub(super) const PREDICTOR_POINTS: usize = 3;
 /// two lost 24).
 pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
     let extrapolate = |xs: &[&[f64]]| -> Vec<f64> {
-        let last = xs[xs.len() - 1];
-        (0..last.len())
-            .map(|i| match xs {
-                [a, b, c] => 3.0 * c[i] - 3.0 * b[i] + a[i],
-                [a, b] => 2.0 * b[i] - a[i],
-                _ => last[i],
-            })
-            .collect()
+        let mut out = vec![0.0; xs[xs.len() - 1].len()];
+        extrapolate(xs, &mut out);
+        out
     };
     let history = same_regime(model, history);
     if history.len() < 2 {
@@ -64,6 +59,19 @@ pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotSta
         q: extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>()),
         y_u,
     })
+}
+
+/// The values one step past the last of `xs` (equal steps, oldest first) into `out`:
+/// quadratic from three, linear from two, the last itself from one.
+pub(super) fn extrapolate(xs: &[&[f64]], out: &mut [f64]) {
+    let last = xs[xs.len() - 1];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = match xs {
+            [a, b, c] => 3.0 * c[i] - 3.0 * b[i] + a[i],
+            [a, b] => 2.0 * b[i] - a[i],
+            _ => last[i],
+        };
+    }
 }
 
 /// The trailing solutions of `history` whose tendons are taut or slack as in the last

@@ -16,6 +16,7 @@ use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
 use crate::rod::Wrench;
 use crate::rod::tendon::tension;
 
+use super::chord_jacobian::JacobianHistory;
 use super::collision::{CollisionChecker, first_collision_of};
 use super::ends::End;
 use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
@@ -88,6 +89,8 @@ pub(super) struct Worker {
     pub(super) solver: Solver,
     /// Collision buffers.
     collisions: CollisionChecker,
+    /// The exact Jacobians at the last solutions on the path being walked.
+    jacobians: JacobianHistory,
     /// Singularity thresholds of the per-point measures.
     analysis: AnalysisSettings,
     /// The message of the last [`End::Failed`].
@@ -102,9 +105,11 @@ impl Worker {
         solver.settings.max_iterations = settings.max_iterations;
         solver.record_shapes(true);
         let collisions = CollisionChecker::new(solver.model());
+        let jacobians = JacobianHistory::new(solver.model());
         Ok(Self {
             solver,
             collisions,
+            jacobians,
             analysis: settings.analysis,
             error: None,
         })
@@ -131,8 +136,10 @@ impl Worker {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
         };
-        // The next step's chord steps start from the exact Jacobian at this solution.
-        self.solver.reuse_blocks_for_ik(&state);
+        // The next step's Newton run starts from the exact Jacobians at the last
+        // solutions, extrapolated to the next point.
+        self.jacobians.push(model, &self.solver, &state);
+        self.jacobians.seed(&mut self.solver);
         // The analysis integrated the legs at `state` and kept their frames.
         let collision = match self.solver.shapes() {
             Some(shapes) => first_collision_of(model, &state, shapes).is_some(),
@@ -201,6 +208,8 @@ impl Worker {
         position: Vector3<f64>,
         work: &Work,
     ) -> Result<Sample, End> {
+        // The substeps are shorter: their Jacobians are extrapolated among themselves.
+        self.jacobians.clear();
         let start = Vector3::from(last.position);
         let mut path = vec![last.clone()];
         for m in 1..=SUBSTEPS {
@@ -215,6 +224,11 @@ impl Worker {
                 work,
             )?;
             if m == SUBSTEPS {
+                // The next full step starts from this point's Jacobian alone (the solver's
+                // blocks are still its analysis').
+                self.jacobians.clear();
+                self.jacobians.push(model, &self.solver, &sample.state);
+                self.jacobians.seed(&mut self.solver);
                 return Ok(sample);
             }
             path.push(sample.state);
@@ -240,6 +254,7 @@ impl Worker {
         // first evaluates its own, so the ray does not depend on what this worker solved
         // before (the map is the same for any thread count and schedule).
         self.solver.forget_jacobian();
+        self.jacobians.clear();
         let mut samples: Vec<Sample> = Vec::new();
         for i in 1..=max_steps {
             let r = i as f64 * settings.step;
