@@ -519,6 +519,24 @@ fn workspace_writes_points_summary_and_figures() {
         "{}",
         stderr(&o)
     );
+    // The redundancy flags as in `ik`: a reference needs --limits strict and n_q values.
+    let redundant = design().replace("lilge2022.ron", "lilge2022_redundant.ron");
+    for (extra, message) in [
+        (
+            &["--reference", "0,0,0,0,0,0,0,0,0"][..],
+            "only with --limits strict",
+        ),
+        (
+            &["--limits", "strict", "--reference", "0,0"][..],
+            "--reference = 2 values: expected 9 values",
+        ),
+    ] {
+        let mut a = vec!["workspace", &redundant, "--out", out.to_str().unwrap()];
+        a.extend_from_slice(extra);
+        let o = tdpcr(&a);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}");
+        assert!(stderr(&o).contains(message), "{extra:?}: {}", stderr(&o));
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -162,6 +162,55 @@ fn tighter_actuation_limits_give_a_subset_of_the_cells() {
     }
 }
 
+/// The 9-DoF design swept with steps within the actuation limits: no ray ends at a
+/// limit, every point keeps its q within them, and the rays reach further than with
+/// least-norm steps (whose q leaves the limits).
+#[cfg(feature = "qp")]
+#[test]
+fn the_redundant_design_swept_within_the_limits_keeps_every_q_inside() {
+    use tdpcr::kinetostatics::{Objective, Redundancy};
+    let design = Tdpcr::from_ron_file(design_path("lilge2022_redundant.ron")).unwrap();
+    let settings = WorkspaceSettings {
+        step: 0.006,
+        angle_step: 0.6,
+        z_range: [0.0, 0.0],
+        ..Default::default()
+    };
+    let free = sweep_on(2, &design, &settings);
+    let strict = sweep_on(
+        2,
+        &design,
+        &WorkspaceSettings {
+            redundancy: Redundancy::WithinLimits(Objective::LeastChange),
+            ..settings
+        },
+    );
+    assert!(
+        free.summary.ray_ends.actuation_limits > 0,
+        "{:?}",
+        free.summary.ray_ends
+    );
+    assert_eq!(strict.summary.ray_ends.actuation_limits, 0);
+    let limits = design.actuation_limits;
+    for p in &strict.points {
+        for leg in p.state.q.chunks(3) {
+            assert!(
+                leg[0].abs() <= limits.tendon_displacement
+                    && leg[1].abs() <= limits.tendon_displacement
+                    && leg[2].abs() <= limits.base_translation,
+                "{:?}",
+                p.state.q
+            );
+        }
+    }
+    assert!(
+        strict.summary.counts.reachable > free.summary.counts.reachable,
+        "{} vs {}",
+        strict.summary.counts.reachable,
+        free.summary.counts.reachable
+    );
+}
+
 #[test]
 fn bad_settings_are_all_reported_with_field_value_and_rule() {
     let settings = WorkspaceSettings {

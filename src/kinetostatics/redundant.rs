@@ -45,7 +45,8 @@ use crate::rod::tendon::TendonUnknown;
 pub(crate) const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
 
 /// How the IK of the redundant (9-DoF) design chooses among its solutions.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Redundancy {
     /// Least change of q at every Gauss–Newton step; limits not enforced (the default).
     #[default]
@@ -57,7 +58,8 @@ pub enum Redundancy {
 }
 
 /// The secondary objective of [`Redundancy::WithinLimits`].
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Objective {
     /// The least change of q from the guess (the warm start, or the straight-leg guess
     /// of a cold solve), in units of each actuator's limit.

@@ -8,6 +8,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::Serialize;
 
 use crate::error::{Error, Violations};
+use crate::kinetostatics::{Objective, Redundancy};
 
 use super::metrics::AnalysisSettings;
 
@@ -58,6 +59,11 @@ pub struct WorkspaceSettings {
     /// first gets 15 iterations and the rest only if those reduced ‖b‖ tenfold (a step past
     /// a fold, where no solution exists, makes no such progress).
     pub max_iterations: usize,
+    /// How the IK of the 9-DoF design chooses among its solutions (ignored by the 6-DoF
+    /// design): least-norm steps (the default; a q beyond its limits ends the ray) or
+    /// steps within the actuation limits ([`Redundancy::WithinLimits`], cargo feature
+    /// `qp`).
+    pub redundancy: Redundancy,
 }
 
 impl Default for WorkspaceSettings {
@@ -71,6 +77,7 @@ impl Default for WorkspaceSettings {
             analysis: AnalysisSettings::default(),
             tolerance: 1e-10,
             max_iterations: 60,
+            redundancy: Redundancy::LeastNorm,
         }
     }
 }
@@ -117,6 +124,23 @@ impl WorkspaceSettings {
         }
         if self.max_iterations == 0 {
             v.push("max_iterations", 0, ">= 1");
+        }
+        #[cfg(not(feature = "qp"))]
+        if matches!(self.redundancy, Redundancy::WithinLimits(_)) {
+            v.push(
+                "redundancy",
+                "WithinLimits",
+                "LeastNorm: steps within the limits need the cargo feature `qp` of tdpcr",
+            );
+        }
+        if let Redundancy::WithinLimits(Objective::ClosestTo(r)) = &self.redundancy {
+            if !r.iter().all(|x| x.is_finite()) {
+                v.push(
+                    "redundancy.reference",
+                    format!("{r:?}"),
+                    "finite numbers [m]",
+                );
+            }
         }
         if v.0.is_empty() {
             Ok(())

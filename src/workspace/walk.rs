@@ -103,6 +103,7 @@ impl Worker {
         let mut solver = Solver::new(design)?;
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
+        solver.redundancy = settings.redundancy.clone();
         solver.record_shapes(true);
         let collisions = CollisionChecker::new(solver.model());
         let jacobians = JacobianHistory::new(solver.model());

@@ -69,6 +69,10 @@ pub struct WorkspaceArgs {
     /// Output directory (created if missing): points.csv, summary.json, slice figures.
     #[arg(long)]
     pub out: PathBuf,
+    /// Redundancy resolution of every IK step of the 9-DoF design, as in `ik` (`free`:
+    /// a q beyond its limits ends the ray; `strict`: the steps keep q within them).
+    #[command(flatten)]
+    pub redundancy: RedundancyArgs,
 }
 
 #[derive(clap::Args)]
@@ -242,7 +246,12 @@ impl RedundancyArgs {
 
     /// Checks the values and sets the solver's redundancy resolution.
     pub fn apply(&self, solver: &mut Solver) -> Result<(), Error> {
-        let n = solver.model().n_actuators();
+        solver.redundancy = self.resolve(solver.model().n_actuators())?;
+        Ok(())
+    }
+
+    /// Checks the values (`n` actuators) and gives the redundancy resolution they ask for.
+    pub fn resolve(&self, n: usize) -> Result<Redundancy, Error> {
         let mut v = tdpcr::error::Violations::default();
         if let Some(r) = &self.reference {
             if self.limits != LimitsArg::Strict {
@@ -262,14 +271,13 @@ impl RedundancyArgs {
         if !v.0.is_empty() {
             return Err(Error::Input(v));
         }
-        solver.redundancy = match (self.limits, &self.reference) {
+        Ok(match (self.limits, &self.reference) {
             (LimitsArg::Free, _) => Redundancy::LeastNorm,
             (LimitsArg::Strict, None) => Redundancy::WithinLimits(Objective::LeastChange),
             (LimitsArg::Strict, Some(r)) => {
                 Redundancy::WithinLimits(Objective::ClosestTo(r.0.clone()))
             }
-        };
-        Ok(())
+        })
     }
 }
 

@@ -13,6 +13,8 @@ use crate::args::WorkspaceArgs;
 /// Runs `tdpcr workspace`.
 pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
     let design = Tdpcr::from_ron_file(&args.design)?;
+    let n_actuators = tdpcr::model::Model::new(&design).n_actuators();
+    let redundancy = args.redundancy.resolve(n_actuators)?;
     let mut v = tdpcr::error::Violations::default();
     let defaults = WorkspaceSettings::default();
     let z_range = match &args.z_range {
@@ -43,6 +45,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         } else {
             CollisionPolicy::Stop
         },
+        redundancy,
         ..defaults
     };
     settings.validate()?;
