@@ -8,6 +8,7 @@
 //! 2. From each plane's origin, rays at angles θ_j = j φ (j = 0 .. ⌈2π/φ⌉ − 1) are
 //!    followed outwards in steps Δ (point i at radius i Δ), each IK solve warm-started
 //!    from an extrapolation of the last solutions on the ray (the path along z likewise),
+//!    its Newton run from the exact Jacobians at those solutions extrapolated likewise,
 //!    until a step is invalid: Newton does not converge (one run from the prediction, at
 //!    most [`WorkspaceSettings::max_iterations`] iterations, to
 //!    [`WorkspaceSettings::tolerance`]; no continuation fallback), any q is outside its

@@ -1,8 +1,9 @@
 //! Walking a ray (or the path along z): one IK step to the next grid point, warm-started
-//! from the predictor ([`super::predict`]) with a probe of its first iterations
-//! ([`PROBE_ITERATIONS`]), the fallback in [`SUBSTEPS`] substeps, the validity of each solved
-//! point (actuation limits, collisions, stability) and the [`Worker`] that does it with its
-//! own solver and buffers.
+//! from the predictor ([`super::predict`]), its Newton run from the Jacobians at the last
+//! solutions extrapolated likewise ([`super::chord_jacobian`]), with a probe of its first
+//! iterations ([`PROBE_ITERATIONS`]), the fallback in [`SUBSTEPS`] substeps, the validity
+//! of each solved point (actuation limits, collisions, stability) and the [`Worker`] that
+//! does it with its own solver and buffers.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
