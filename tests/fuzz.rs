@@ -484,10 +484,18 @@ fn cli_case() -> impl Strategy<Value = Vec<String>> {
             s("--format"),
             s(fmt),
         ]),
-        (workspace_step(), workspace_angle(), list(2), list(3)).prop_map(
-            move |(st, an, z, r)| vec![
+        (
+            workspace_step(),
+            workspace_angle(),
+            list(2),
+            list(3),
+            limits()
+        )
+            .prop_map(move |(st, an, z, r, lim)| vec![
                 s("workspace"),
                 path_of("lilge2022.ron"),
+                s("--limits"),
+                s(lim),
                 s("--step"),
                 st,
                 s("--angle-step"),
@@ -503,8 +511,7 @@ fn cli_case() -> impl Strategy<Value = Vec<String>> {
                     .join(format!("tdpcr-fuzz-ws-{}", std::process::id()))
                     .display()
                     .to_string(),
-            ]
-        ),
+            ]),
         Just(vec![s("validate"), path_of("lilge2022.ron")]),
     ]
 }
