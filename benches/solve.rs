@@ -147,33 +147,27 @@ fn bench_solves(c: &mut Criterion) {
     // step, ε_b = 1e-10; closed, so it is run round and round): one iteration is one
     // step, so criterion's figure is the time per step (median and max per step: the
     // example warm_ik_path).
+    // "_own_jacobians": the same path without reusing the last step's Jacobian (each
+    // step evaluates its own, as before issue 17's reuse): the ratio within one run.
     let path = ik_fine_path(&home.pose(), 200);
-    let mut on_path = solver.solve_ik(&path[0], &w, Some(&home)).unwrap().state;
-    let mut k = 0;
-    group.bench_function("ik_fine_path_step", |b| {
-        b.iter(|| {
-            k = (k + 1) % path.len();
-            let sol = solver
-                .solve_ik(black_box(&path[k]), &w, Some(&on_path))
-                .unwrap();
-            on_path = sol.state;
-        })
-    });
-    // The same path without reusing the last step's Jacobian (each step evaluates its
-    // own, as before issue 17's reuse): the ratio within one run.
-    let mut own = Solver::new(&d).unwrap();
-    own.reuse_jacobian = false;
-    let mut on_own_path = own.solve_ik(&path[0], &w, Some(&home)).unwrap().state;
-    let mut k = 0;
-    group.bench_function("ik_fine_path_step_own_jacobians", |b| {
-        b.iter(|| {
-            k = (k + 1) % path.len();
-            let sol = own
-                .solve_ik(black_box(&path[k]), &w, Some(&on_own_path))
-                .unwrap();
-            on_own_path = sol.state;
-        })
-    });
+    for (name, reuse) in [
+        ("ik_fine_path_step", true),
+        ("ik_fine_path_step_own_jacobians", false),
+    ] {
+        let mut walker = Solver::new(&d).unwrap();
+        walker.reuse_jacobian = reuse;
+        let mut on_path = walker.solve_ik(&path[0], &w, Some(&home)).unwrap().state;
+        let mut k = 0;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) % path.len();
+                let sol = walker
+                    .solve_ik(black_box(&path[k]), &w, Some(&on_path))
+                    .unwrap();
+                on_path = sol.state;
+            })
+        });
+    }
     // The same step from a state this solver did not produce (no prediction).
     group.bench_function("ik_warm_step_1mm_unpredicted", |b| {
         b.iter_batched(
@@ -198,27 +192,22 @@ fn bench_solves(c: &mut Criterion) {
     let d9 = design("lilge2022_redundant_psi0.ron");
     let mut solver9 = Solver::new(&d9).unwrap();
     let fk = fk_motion_sequence(solver9.model().pairs, 1000);
-    group.bench_function("fk_motion_1000_steps_9dof", |b| {
-        b.iter(|| {
-            run_trajectory(
-                &mut solver9,
-                black_box(&Targets::Actuations(fk.clone())),
-                &w,
-            )
-            .1
-        })
-    });
-    solver9.reuse_jacobian = false;
-    group.bench_function("fk_motion_1000_steps_9dof_own_jacobians", |b| {
-        b.iter(|| {
-            run_trajectory(
-                &mut solver9,
-                black_box(&Targets::Actuations(fk.clone())),
-                &w,
-            )
-            .1
-        })
-    });
+    for (name, reuse) in [
+        ("fk_motion_1000_steps_9dof", true),
+        ("fk_motion_1000_steps_9dof_own_jacobians", false),
+    ] {
+        solver9.reuse_jacobian = reuse;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                run_trajectory(
+                    &mut solver9,
+                    black_box(&Targets::Actuations(fk.clone())),
+                    &w,
+                )
+                .1
+            })
+        });
+    }
     group.finish();
 }
 
