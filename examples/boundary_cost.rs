@@ -1,6 +1,6 @@
 //! Runs one kind of boundary Jacobian evaluation many times at a solved configuration
 //! (for instruction counting under callgrind):
-//! `boundary_cost {6dof|9dof} {residual|exact|fd_forward|fd_central}`.
+//! `boundary_cost {6dof|9dof} {residual|exact|fd_forward|fd_central} [repetitions, default 200]`.
 use nalgebra::DVector;
 use tdpcr::Tdpcr;
 use tdpcr::boundary::{
@@ -31,7 +31,8 @@ fn main() {
     let mut jac = BoundaryJacobians::new(&model);
     let mut r = DVector::zeros(model.n_residuals());
     let kind = args.get(2).map(String::as_str).unwrap_or("exact");
-    for _ in 0..200 {
+    let repetitions: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(200);
+    for _ in 0..repetitions {
         match kind {
             "none" => {}
             "residual" => boundary_residual(&model, &mut sc, &p, &mut r).unwrap(),

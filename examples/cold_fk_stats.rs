@@ -1,17 +1,17 @@
 //! Cold FK over 30 seeded actuation vectors that have an equilibrium on the home branch
 //! (`sampling::seeded_reachable_actuations`, seed 42): converged count, whether each
 //! solution is the certified one, median iterations and solve time (BENCHMARKS.md).
+//! `cold_fk_stats [DESIGN.ron]` (default: the reference design).
 use tdpcr::Tdpcr;
 use tdpcr::kinetostatics::Solver;
 use tdpcr::rod::Wrench;
 use tdpcr::sampling::seeded_reachable_actuations;
 
 fn main() {
-    let design = Tdpcr::from_ron_file(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/designs/lilge2022.ron"
-    ))
-    .unwrap();
+    let file = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron").into());
+    let design = Tdpcr::from_ron_file(&file).unwrap();
     let sample = seeded_reachable_actuations(&design, 30, 42).unwrap();
     println!(
         "{} draws rejected (path from q = 0 ends in a fold first):",

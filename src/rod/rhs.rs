@@ -126,8 +126,8 @@ pub fn times_hat<T: Real>(m: &Matrix3<T>, x: &Vector3<T>) -> Matrix3<T> {
 struct TendonPoint<T: Real> {
     /// Path tangent w = v + u × r (body frame).
     w: Vector3<T>,
-    /// ℓ = |w|.
-    len: T,
+    /// 1/ℓ, ℓ = |w|.
+    inv_len: T,
     /// t = w / ℓ.
     t: Vector3<T>,
     /// r × t: d ℓ = t · dv + (r × t) · du.
@@ -165,7 +165,7 @@ impl<T: Real> Stage<T> {
     pub fn new() -> Self {
         let tp = TendonPoint {
             w: Vector3::zeros(),
-            len: T::one(),
+            inv_len: T::one(),
             t: Vector3::zeros(),
             rt: Vector3::zeros(),
             c: T::zero(),
@@ -225,8 +225,11 @@ impl<T: Real> Stage<T> {
             let r_k = tendons.offsets[k];
             let w = v + cross(&u, &r_k);
             let len = dot(&w, &w).sqrt();
-            let t = w / len;
-            let c = tendons.tensions[k] / len;
+            // One division, then products: t = w/ℓ and c = τ/ℓ by four divisions took a
+            // quarter of the residual's time (the divider's throughput, measured).
+            let inv_len = T::one() / len;
+            let t = w * inv_len;
+            let c = tendons.tensions[k] * inv_len;
             // A = c (I − t tᵀ); r̂A = c (r̂ − (r × t) tᵀ); r̂ A r̂ᵀ = c (r̂r̂ᵀ − (r × t)(r × t)ᵀ).
             let rt = cross(&r_k, &t);
             // A slack tendon (c = 0) adds nothing: its lanes are left as they are.
@@ -252,7 +255,13 @@ impl<T: Real> Stage<T> {
                     add(&mut rhs_u[i], -moment[i]);
                 }
             }
-            self.tendons[k] = TendonPoint { w, len, t, rt, c };
+            self.tendons[k] = TendonPoint {
+                w,
+                inv_len,
+                t,
+                rt,
+                c,
+            };
             out.s[k] = len;
         }
         let factor = Ldlt6::factor_blocks(&blk_a, &blk_b, &blk_c).ok_or(SolveError::NonFinite {
@@ -341,11 +350,11 @@ impl<T: Real> Stage<T> {
             let tp = &self.tendons[k];
             let r = tendons.offsets[k];
             let y = self.dv + cross(&self.du, &r) + cross(u, &tp.w);
-            let (t, c, len) = (&tp.t, tp.c, tp.len);
+            let (t, c, inv_len) = (&tp.t, tp.c, tp.inv_len);
             let ty = dot(t, &y);
             let q = y - t * ty;
             if directions > 6 {
-                let src = q / len;
+                let src = q * inv_len;
                 let moment = cross(&r, &src);
                 for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
                     let lane = 6 + tendons.tendon[leg][k];
@@ -365,7 +374,7 @@ impl<T: Real> Stage<T> {
             // N = A û − T with A û = c (û + t (u × t)ᵀ) and
             // T = (c/ℓ)(q tᵀ + t qᵀ + (t·y)(I − t tᵀ)); Ñ = −N r̂ − A ŵ, A ŵ = c ŵ (t ∥ w).
             let ut = cross(u, t);
-            let (ct, w) = (c / len, &tp.w);
+            let (ct, w) = (c * inv_len, &tp.w);
             let u_hat = [[zero, -u.z, u.y], [u.z, zero, -u.x], [-u.y, u.x, zero]];
             let mut n = [[zero; 3]; 3];
             for i in 0..3 {
