@@ -99,6 +99,32 @@ fn bench_ik_within_limits(c: &mut Criterion) {
             )
         });
     }
+    // Least-norm steps of 1 mm back and forth between two poses, each from the solver's
+    // own last solution (a controller's loop), with fresh Jacobians (the default) and
+    // starting from the last factorization (`Solver::reuse_least_norm_factorization`).
+    for (name, reuse) in [
+        ("least_norm_back_and_forth", false),
+        ("least_norm_back_and_forth_reused", true),
+    ] {
+        let mut solver = Solver::new(&d).unwrap();
+        solver.reuse_least_norm_factorization = reuse;
+        let w = Wrench::default();
+        let mut last = solver.solve_ik(&Pose::identity(), &w, None).unwrap().state;
+        let poses = [1e-3, 0.0].map(|x| Pose {
+            position: Vector3::new(x, 0.0, 0.0),
+            rotation: last.pose().rotation,
+        });
+        let mut k = 0;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                k += 1;
+                last = solver
+                    .solve_ik(black_box(&poses[k % 2]), &w, Some(&last))
+                    .unwrap()
+                    .state;
+            })
+        });
+    }
     group.finish();
 }
 

@@ -936,6 +936,13 @@ pub trait StepRule<S> {
         let _ = (system, x, r, weights, iteration);
         None
     }
+
+    /// Whether the run starts with chord steps on the factorization the rule already
+    /// holds (from an earlier run that ended near this start: a path step), instead of a
+    /// Jacobian at the start. `false` by default.
+    fn starts_with_chord(&self) -> bool {
+        false
+    }
 }
 
 /// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
@@ -958,7 +965,9 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// reduced ‖W F‖ by at least [`NewtonSettings::chord_contraction`] to at most
 /// [`CHORD_TAIL`] × the tolerance (in test units), the next step is a chord step ([`StepRule::chord_step`], the Jacobian reused) taken whole if it contracts
 /// as much again; otherwise (or when the rule has no chord step) the Jacobian is
-/// evaluated at x and the step computed anew, so a chord step never ends a run.
+/// evaluated at x and the step computed anew, so a chord step never ends a run. A rule
+/// that [starts with chord steps](StepRule::starts_with_chord) has the run start so,
+/// with the residual alone at the start, whatever its size.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -986,14 +995,18 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         weighted.component_mul_assign(&weights);
         weighted.norm_squared()
     };
-    system.residual_and_jacobian(x, &mut r)?;
+    // Whether the Jacobian the rule holds was evaluated at x.
+    let mut fresh = !rule.starts_with_chord();
+    if fresh {
+        system.residual_and_jacobian(x, &mut r)?;
+        report.jacobian_evaluations += 1;
+    } else {
+        system.residual(x, &mut r)?;
+    }
     report.residual_evaluations += 1;
-    report.jacobian_evaluations += 1;
     report.residual_norm = test_norm(&r, &units);
     let first_norm = report.residual_norm;
     let contraction_sq = settings.chord_contraction.powi(2);
-    // Whether the Jacobian the rule holds was evaluated at x.
-    let mut fresh = true;
     loop {
         if let Some(end) = settings.outcome(&report, first_norm) {
             return end;

@@ -34,11 +34,15 @@ fn reference(mode: &str) -> Vec<Vec<f64>> {
     rows
 }
 
-/// Runs the path with `redundancy` and compares every step's q with `mode`'s reference.
-fn follow(redundancy: Redundancy, mode: &str) {
+/// Runs the path with `redundancy` and compares every step's q with `mode`'s reference
+/// (within `tolerance` \[m\]); `reuse` as [`Solver::reuse_least_norm_factorization`].
+/// Returns the largest difference and the Jacobian evaluations of the 30 steps.
+fn follow(redundancy: Redundancy, mode: &str, reuse: bool, tolerance: f64) -> (f64, usize) {
     let d = Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap();
     let mut solver = Solver::new(&d).unwrap();
     solver.redundancy = redundancy;
+    solver.reuse_least_norm_factorization = reuse;
+    let mut jacobians = 0;
     let w = Wrench::default();
     let home = solver.solve_fk(&[0.0; 9], &w, None).unwrap().state;
     let mut q0 = vec![0.0; 9];
@@ -53,10 +57,11 @@ fn follow(redundancy: Redundancy, mode: &str) {
             rotation: start.rotation,
         };
         let s = solver.solve_ik(&target, &w, Some(&state)).unwrap();
+        jacobians += s.report.jacobian_evaluations;
         for (j, (q, e)) in s.state.q.iter().zip(expected).enumerate() {
             let difference = (q - e).abs();
             assert!(
-                difference <= 1e-9,
+                difference <= tolerance,
                 "{mode} step {}: q[{j}] = {q}, reference {e} (difference {difference:e} m)",
                 k + 1
             );
@@ -76,15 +81,36 @@ fn follow(redundancy: Redundancy, mode: &str) {
         }
         state = s.state;
     }
-    eprintln!("{mode}: largest |q − q_ref| over 30 steps {worst:e} m");
+    eprintln!(
+        "{mode} (reuse {reuse}): largest |q − q_ref| over 30 steps {worst:e} m, {jacobians} Jacobians"
+    );
+    (worst, jacobians)
 }
 
 #[test]
 fn least_norm_steps_along_a_path_land_on_the_reference_solutions() {
-    follow(Redundancy::LeastNorm, "free");
+    follow(Redundancy::LeastNorm, "free", false, 1e-9);
+}
+
+#[test]
+fn least_norm_steps_from_the_last_factorization_converge_with_fewer_jacobians() {
+    // Chord steps land elsewhere on the solution set (no bound on q asked here: each
+    // step converged, which `follow` checks); they must save Jacobians.
+    let (_, fresh) = follow(Redundancy::LeastNorm, "free", false, 1e-9);
+    let (_, reused) = follow(Redundancy::LeastNorm, "free", true, f64::INFINITY);
+    assert!(
+        2 * reused <= fresh,
+        "{reused} Jacobians from the last factorization, {fresh} fresh"
+    );
 }
 
 #[test]
 fn within_limits_steps_along_a_path_land_on_the_reference_solutions_within_the_limits() {
-    follow(Redundancy::WithinLimits(Objective::LeastChange), "strict");
+    // The within-limits steps never start from the last factorization, even when asked.
+    follow(
+        Redundancy::WithinLimits(Objective::LeastChange),
+        "strict",
+        true,
+        1e-9,
+    );
 }

@@ -44,6 +44,7 @@ pub(super) fn scaled_step_matrix(
 }
 
 /// The factorized least-change problem of one A, P and set of fixed variables.
+#[derive(Debug, Clone)]
 pub(super) struct LeastChange {
     /// Cholesky factor of S = A_f P_f⁻¹ A_fᵀ.
     s: Cholesky<f64, Dyn>,

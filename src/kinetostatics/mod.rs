@@ -61,6 +61,7 @@ use predictor::LastSolve;
 use target::{Target, solve_target};
 
 pub use home::{home_guess, straight_leg_pose, straight_leg_translations};
+use redundant::LastLeastNorm;
 pub use redundant::{Objective, Redundancy};
 pub use state::{RobotState, Solution};
 
@@ -99,8 +100,21 @@ pub struct Solver {
     /// evaluations only, while that Jacobian still contracts. On by default; such steps
     /// then differ from a fresh solver's within the tolerance. Solves from any other
     /// guess, and cold ones, do not depend on earlier solves (except as
-    /// [`Solver::reuse_blocks_for_ik`] asks).
+    /// [`Solver::reuse_blocks_for_ik`] asks). For the IK of the 9-DoF design see
+    /// [`Solver::reuse_least_norm_factorization`].
     pub reuse_jacobian: bool,
+    /// Whether a least-norm IK of the 9-DoF design ([`Redundancy::LeastNorm`]) whose
+    /// guess is this solver's last least-norm solution starts with chord steps on the
+    /// last run's factorized least-norm step (taken while each contracts the residual
+    /// tenfold, then fresh Jacobians) instead of a Jacobian at its start. Off by default:
+    /// such a step costs residuals only (a 1 mm step back and forth: 4 residuals, no
+    /// Jacobian; BENCHMARKS.md), but the redundant IK has a set of solutions and chord
+    /// steps land on it elsewhere than fresh Gauss–Newton steps: along the 30 steps of
+    /// 1 mm of `tests/redundant_path.rs` q ends up to 1.8e-5 m from the default's (every
+    /// solution converged, the pose held). Going back and forth between two poses, q
+    /// then repeats exactly, where fresh steps creep by ≈ 2e-8 m per cycle. The
+    /// within-limits IK always starts with a fresh Jacobian.
+    pub reuse_least_norm_factorization: bool,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
     /// (the tangent predictor of warm starts from it).
     last: Option<LastSolve>,
@@ -110,6 +124,9 @@ pub struct Solver {
     /// Whether [`Solver::reuse_blocks_for_ik`] put an analysis' blocks in `newton` for
     /// the next IK solve, whatever its guess.
     seeded: bool,
+    /// The last converged least-norm IK of the redundant design and its factorized step
+    /// ([`Solver::reuse_jacobian`]).
+    least_norm: Option<LastLeastNorm>,
 }
 
 impl Solver {
@@ -132,9 +149,11 @@ impl Solver {
             jacobian: JacobianMethod::Exact,
             redundancy: Redundancy::LeastNorm,
             reuse_jacobian: true,
+            reuse_least_norm_factorization: false,
             last: None,
             newton_system: None,
             seeded: false,
+            least_norm: None,
         })
     }
 
@@ -307,6 +326,7 @@ impl Solver {
         self.newton_system = None;
         self.seeded = false;
         self.last = None;
+        self.least_norm = None;
         self.newton.forget_jacobian();
     }
 

@@ -161,13 +161,17 @@ impl LineSearchSystem for IkSystem<'_> {
 /// W (B_q δq + B_u δy) = −W b with δy = S δỹ ([`scaled_step_matrix`]: rows weighted, leg
 /// unknowns scaled to unit columns; ε = [`LEAST_NORM_Y_WEIGHT`] keeps the step out of the
 /// null-space directions that move y much and q little), by [`LeastChange`]; the
-/// factorization of the last Jacobian serves the chord steps.
+/// factorization of the last Jacobian serves the chord steps, and with `warm` set, the
+/// first steps of the next run (a path step from this run's solution).
+#[derive(Debug, Clone)]
 pub(super) struct LeastNormStep {
     /// The diagonal of the objective: 1 for q, ε for ỹ.
     p: Vec<f64>,
     /// The scaled constraint matrix, its column scales S and its factorization, of the
     /// last Jacobian.
     factored: Option<(DMatrix<f64>, Vec<f64>, LeastChange)>,
+    /// Whether the next run starts with chord steps on `factored`.
+    pub(super) warm: bool,
 }
 
 impl LeastNormStep {
@@ -176,7 +180,11 @@ impl LeastNormStep {
         let (nq, nu) = (model.n_actuators(), 3 * model.n_leg_unknowns());
         let mut p = vec![LEAST_NORM_Y_WEIGHT; nq + nu];
         p[..nq].fill(1.0);
-        Self { p, factored: None }
+        Self {
+            p,
+            factored: None,
+            warm: false,
+        }
     }
 
     /// The step \[δq, δy\] for residual `r` from the factorized system.
@@ -221,9 +229,28 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
     ) -> Option<Vec<f64>> {
         self.solve(r, weights)
     }
+
+    fn starts_with_chord(&self) -> bool {
+        self.warm && self.factored.is_some()
+    }
+}
+
+/// The last converged least-norm IK and its step rule (holding the factorization of the
+/// run's last Jacobian): the next IK from this solution starts with chord steps on it
+/// ([`super::Solver::reuse_jacobian`]).
+#[derive(Debug, Clone)]
+pub(super) struct LastLeastNorm {
+    rule: LeastNormStep,
+    q: Vec<f64>,
+    y_u: Vec<f64>,
+    wrench: Wrench,
 }
 
 /// IK of the redundant design by least-norm steps from `guess` (q and γ leg unknowns).
+/// With `last` given and `guess` its solution under the same wrench, the run starts with
+/// chord steps on `last`'s factorization (taken while each contracts the residual
+/// [`NewtonSettings::chord_contraction`]-fold; otherwise the run goes on with a fresh
+/// Jacobian). A converged run is left in `last` for the next.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] when the KKT system is singular, the line search fails
@@ -232,7 +259,28 @@ pub(super) fn least_norm_ik(
     system: &mut IkSystem<'_>,
     settings: &NewtonSettings,
     guess: RobotState,
+    last: Option<&mut Option<LastLeastNorm>>,
 ) -> Result<(RobotState, NewtonReport), SolveError> {
-    let mut rule = LeastNormStep::new(system.model);
-    system.solve(&mut rule, settings, &guess.q, &guess.y_u)
+    let Some(last) = last else {
+        let mut rule = LeastNormStep::new(system.model);
+        return system.solve(&mut rule, settings, &guess.q, &guess.y_u);
+    };
+    let from_last = last
+        .as_ref()
+        .is_some_and(|l| l.wrench == *system.wrench && l.q == guess.q && l.y_u == guess.y_u);
+    let mut rule = match last.take() {
+        Some(l) if from_last => l.rule,
+        _ => LeastNormStep::new(system.model),
+    };
+    rule.warm = from_last;
+    let result = system.solve(&mut rule, settings, &guess.q, &guess.y_u);
+    if let Ok((state, _)) = &result {
+        *last = Some(LastLeastNorm {
+            rule,
+            q: state.q.clone(),
+            y_u: state.y_u.clone(),
+            wrench: *system.wrench,
+        });
+    }
+    result
 }

@@ -59,7 +59,13 @@ pub(super) fn solve_target(
                 wrench,
             };
             match &solver.redundancy {
-                Redundancy::LeastNorm => least_norm_ik(&mut system, settings, guess),
+                Redundancy::LeastNorm => {
+                    // The last run's factorization starts a path step from its solution
+                    // (on the solver's own model only: not within a continuation).
+                    let last = (scaled.is_none() && solver.reuse_least_norm_factorization)
+                        .then_some(&mut solver.least_norm);
+                    least_norm_ik(&mut system, settings, guess, last)
+                }
                 #[cfg(feature = "qp")]
                 Redundancy::WithinLimits(objective) => {
                     super::within_limits::within_limits_ik(&mut system, settings, guess, objective)
