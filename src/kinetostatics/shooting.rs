@@ -10,7 +10,9 @@
 
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
-use super::predictor::{LastSolve, is_last_solution, predict};
+use super::predictor::{
+    LastSolve, PREDICTOR_POINTS, PathPoint, is_last_solution, predict, target_vector,
+};
 use super::state::RobotState;
 use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
 use crate::boundary::{
@@ -73,7 +75,11 @@ pub(super) fn run_with(
     } else {
         None
     };
-    solver.last = None;
+    // The path of warm solves this one continues (the predictor's points).
+    let mut path = match solver.last.take() {
+        Some(last) if from_last => last.path,
+        _ => Vec::new(),
+    };
     let forward = matches!(problem, Problem::Forward { .. });
     if scaled.is_none()
         && solver.reuse_jacobian
@@ -126,10 +132,18 @@ pub(super) fn run_with(
         },
     };
     if scaled.is_none() && solver.jacobian == JacobianMethod::Exact {
+        if path.len() == PREDICTOR_POINTS {
+            path.remove(0);
+        }
+        path.push(PathPoint {
+            target: target_vector(problem),
+            x,
+        });
         solver.last = Some(LastSolve {
             state: state.clone(),
             wrench: *wrench,
             forward,
+            path,
         });
     }
     Ok((state, report))
