@@ -23,8 +23,6 @@ fn max_q_difference(a: &RobotState, b: &RobotState) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Platform equilibrium and joint conditions recomputed from fresh leg integrations,
-/// independently of the boundary residual code. Returns the worst violation in SI units.
 /// The angle \[rad\] between two orientations, resolved down to round-off: |sin θ| from
 /// the skew part of a bᵀ. (`Rotation3::angle` takes acos of the trace, which cannot
 /// resolve angles below √(2ε) ≈ 2.1e-8 rad: one ulp of the trace reads as 2.1e-8.)
@@ -39,6 +37,8 @@ fn rotation_error(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
         / 2.0
 }
 
+/// Platform equilibrium and joint conditions recomputed from fresh leg integrations,
+/// independently of the boundary residual code. Returns the worst violation in SI units.
 fn independent_check(model: &Model, state: &RobotState, wrench: &Wrench) -> f64 {
     let pose = state.pose();
     let nu = model.n_leg_unknowns();

@@ -84,7 +84,29 @@ pub(super) fn cold_fk(
 /// [`CONTINUATION_MAX_ITERATIONS`] and doubled after an easy step. With
 /// [`Loads::FromUnloaded`] the gravity loads and `wrench` grow with λ and the auxiliary
 /// pretension relaxes to the design's; intermediate steps then stop at 1e-7.
+///
+/// Its steps start from the tangent prediction only, never from extrapolated solutions
+/// (`Solver::extrapolate_starts` off), and it leaves only its last solution for the
+/// predictor of the next warm solve: a continuation's steps are long (a quarter of the
+/// way and more) and change length, and a polynomial through them misled Newton (the cold
+/// FK of the ψ = 0 9-DoF design from the q = 0 state: one of 30 draws more failed).
 fn ramp(
+    solver: &mut Solver,
+    base: &NewtonSettings,
+    start: RobotState,
+    wrench: &Wrench,
+    target: &dyn Fn(f64) -> Target,
+    loads: Loads,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let extrapolate = std::mem::replace(&mut solver.extrapolate_starts, false);
+    let result = ramp_steps(solver, base, start, wrench, target, loads);
+    solver.extrapolate_starts = extrapolate;
+    solver.keep_last_solution_only();
+    result
+}
+
+/// The steps of [`ramp`].
+fn ramp_steps(
     solver: &mut Solver,
     base: &NewtonSettings,
     start: RobotState,

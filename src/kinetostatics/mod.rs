@@ -10,7 +10,8 @@
 //! - `target.rs`: the target of one solve and which Newton takes it;
 //! - `shooting.rs`: FK and square IK as a [`crate::newton::NonlinearSystem`] (unknowns,
 //!   row weights, step limit at tendon kinks, rotation retraction);
-//! - `predictor.rs`: the tangent predictor of warm starts (MODEL.md §4);
+//! - `predictor.rs`: the predictor of warm starts: tangent (MODEL.md §4) or extrapolated
+//!   from the last solutions on a smooth path;
 //! - `continuation.rs`: cold starts, ramps of actuation or pose, and the homotopy from
 //!   the unloaded home;
 //! - `redundant.rs`: IK of the 9-DoF design by the Gauss–Newton driver
@@ -112,11 +113,11 @@ pub struct Solver {
     /// steps land on it elsewhere than fresh Gauss–Newton steps: along the 30 steps of
     /// 1 mm of `tests/redundant_path.rs` q ends up to 1.8e-5 m from the default's (every
     /// solution converged, the pose held). Going back and forth between two poses, q
-    /// then repeats exactly, where fresh steps creep by ≈ 2e-8 m per cycle. The
+    /// then repeats exactly, where fresh steps creep by ≈ 4e-8 m per cycle. The
     /// within-limits IK always starts with a fresh Jacobian.
     pub reuse_least_norm_factorization: bool,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
-    /// (the tangent predictor of warm starts from it).
+    /// (the predictor of warm starts from it), with the solutions before it on its path.
     last: Option<LastSolve>,
     /// Which square system (FK: true, IK: false) the Jacobian in `newton` belongs to,
     /// if its last run converged on the unscaled model.
@@ -125,8 +126,11 @@ pub struct Solver {
     /// the next IK solve, whatever its guess.
     seeded: bool,
     /// The last converged least-norm IK of the redundant design and its factorized step
-    /// ([`Solver::reuse_jacobian`]).
+    /// ([`Solver::reuse_least_norm_factorization`]).
     least_norm: Option<LastLeastNorm>,
+    /// Whether warm starts on smooth paths may start from the extrapolated last
+    /// solutions (`predictor`); off within continuations.
+    extrapolate_starts: bool,
 }
 
 impl Solver {
@@ -154,6 +158,7 @@ impl Solver {
             newton_system: None,
             seeded: false,
             least_norm: None,
+            extrapolate_starts: true,
         })
     }
 
@@ -316,6 +321,15 @@ impl Solver {
             guess,
         );
         finish(result, start, extra, &self.model, None)
+    }
+
+    /// Keeps the last solution for the next warm solve's tangent prediction, but none
+    /// before it for an extrapolated start.
+    fn keep_last_solution_only(&mut self) {
+        if let Some(last) = self.last.as_mut() {
+            let older = last.path.len().saturating_sub(1);
+            last.path.drain(..older);
+        }
     }
 
     /// Forgets the last solve's Jacobian, so the next solve neither reuses it

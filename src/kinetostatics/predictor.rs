@@ -23,10 +23,11 @@ pub(super) const PREDICTOR_POINTS: usize = 5;
 /// targets (about the platform's coupling radius).
 const ROTATION_LENGTH: f64 = 0.1;
 /// Steps along a path of targets differ by at most this factor from each other for the
-/// quadratic extrapolation (about equal steps, as a controller's or a planner's).
+/// extrapolation (about equal steps, as a controller's or a planner's).
 const STEP_RATIO: f64 = 2.0;
 /// The new target lies within this fraction of its step from the target path
-/// extrapolated from the last three (a smooth path; a reversal or a corner is not).
+/// extrapolated from the last solutions' targets (a smooth path; a reversal or a corner
+/// is not).
 const PATH_DEVIATION: f64 = 0.25;
 
 /// One solution on a path: its target (FK: q \[m\]; IK: position \[m\] and rotation vector
@@ -46,7 +47,8 @@ pub(super) struct LastSolve {
     pub(super) wrench: Wrench,
     /// FK (true) or square IK (false).
     pub(super) forward: bool,
-    /// This solution and up to two before it on one path of warm solves (oldest first).
+    /// This solution and up to [`PREDICTOR_POINTS`] − 1 before it on one path of warm
+    /// solves (oldest first).
     pub(super) path: Vec<PathPoint>,
 }
 
@@ -91,7 +93,11 @@ pub(super) fn target_vector(problem: Problem) -> Vec<f64> {
 /// the prediction is returned in the same form.
 pub(super) fn predict(solver: &Solver, problem: Problem, x: &DVector<f64>) -> Option<DVector<f64>> {
     let last = solver.last.as_ref()?;
-    let (from, dq, dp, dtheta) = match extrapolated_start(&solver.model, problem, &last.path) {
+    let extrapolated = solver
+        .extrapolate_starts
+        .then(|| extrapolated_start(&solver.model, problem, &last.path))
+        .flatten();
+    let (from, dq, dp, dtheta) = match extrapolated {
         Some(start) => start,
         None => {
             let (dq, dp, dtheta) = match problem {
@@ -169,7 +175,8 @@ fn extrapolated_start(
     let (shortest, longest) = steps.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &s| {
         (lo.min(s), hi.max(s))
     });
-    if !(shortest > 0.0 && longest <= STEP_RATIO * shortest) {
+    if !(steps.iter().all(|s| s.is_finite()) && shortest > 0.0 && longest <= STEP_RATIO * shortest)
+    {
         return None;
     }
     let nodes: Vec<f64> = std::iter::once(0.0)

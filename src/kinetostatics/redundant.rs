@@ -237,7 +237,7 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
 
 /// The last converged least-norm IK and its step rule (holding the factorization of the
 /// run's last Jacobian): the next IK from this solution starts with chord steps on it
-/// ([`super::Solver::reuse_jacobian`]).
+/// ([`super::Solver::reuse_least_norm_factorization`]).
 #[derive(Debug, Clone)]
 pub(super) struct LastLeastNorm {
     rule: LeastNormStep,

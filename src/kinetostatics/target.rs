@@ -61,7 +61,8 @@ pub(super) fn solve_target(
             match &solver.redundancy {
                 Redundancy::LeastNorm => {
                     // The last run's factorization starts a path step from its solution
-                    // (on the solver's own model only: not within a continuation).
+                    // (on the solver's own model only: not within a continuation of the
+                    // loads, whose model is scaled).
                     let last = (scaled.is_none() && solver.reuse_least_norm_factorization)
                         .then_some(&mut solver.least_norm);
                     least_norm_ik(&mut system, settings, guess, last)
