@@ -1066,6 +1066,51 @@ mod trajectory_limits {
         std::fs::remove_dir_all(&dir).ok();
     }
 
+    /// `--reuse-factorization`: least-norm steps back and forth between two poses start
+    /// from the first round trip's factorization, so q at each pose repeats (to
+    /// round-off); the flag is refused where there are no least-norm IK steps.
+    #[test]
+    fn reused_factorizations_repeat_q_going_back_and_forth() {
+        let dir = scratch("reuse");
+        let csv = dir.join("poses.csv");
+        let targets: Vec<[f64; 3]> = (0..9).map(|k| [0.001 * (k % 2) as f64, 0.0, 0.0]).collect();
+        write_poses(&csv, &targets);
+        let steps = converged_steps(&run(&redundant(), &csv, &["--reuse-factorization"]));
+        assert_reached(&steps, &targets);
+        // (Fresh steps creep by ≈ 4e-8 m a round trip here.)
+        for k in 4..steps.len() {
+            let (a, b) = (&steps[k].1, &steps[k - 2].1);
+            let d = a
+                .iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                d < 1e-12,
+                "step {k}: q differs from step {} by {d:e} m",
+                k - 2
+            );
+        }
+        for extra in [
+            &["--limits", "strict", "--reuse-factorization"][..],
+            &["--reuse-factorization"][..],
+        ] {
+            let design = if extra.len() == 1 {
+                design_path("lilge2022.ron").display().to_string()
+            } else {
+                redundant()
+            };
+            let o = run(&design, &csv, extra);
+            assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+            assert!(
+                stderr(&o).contains("--reuse-factorization"),
+                "{}",
+                stderr(&o)
+            );
+        }
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     /// Up 110 mm along z (10 mm steps), then 4 mm steps along y: the least-norm steps drive
     /// leg 2's x-bending past its 10 mm limit from y = 40 mm on (found by experiment: at
     /// y = 52 mm |q|/limit is 1.16), the QP steps reach the same poses with q on the limit.

@@ -148,6 +148,19 @@ impl Robot {
         self.solver.model().n_actuators()
     }
 
+    /// Whether a least-norm `ik` of the 9-DoF design from this robot's last least-norm
+    /// solution starts with chord steps on that solve's factorization
+    /// (`Solver::reuse_least_norm_factorization`; default false).
+    #[getter]
+    fn get_reuse_least_norm_factorization(&self) -> bool {
+        self.solver.reuse_least_norm_factorization
+    }
+
+    #[setter]
+    fn set_reuse_least_norm_factorization(&mut self, on: bool) {
+        self.solver.reuse_least_norm_factorization = on;
+    }
+
     /// Forward kinetostatics at actuation `q` [m] under the platform weight plus `wrench`.
     #[pyo3(signature = (q, wrench=None, init=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
     #[allow(clippy::too_many_arguments)]

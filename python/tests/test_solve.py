@@ -6,7 +6,7 @@ import time
 import numpy as np
 
 import tdpcr
-from conftest import Q6
+from conftest import DESIGNS, Q6
 
 
 def test_fk_ik_round_trip(robot):
@@ -75,6 +75,22 @@ def test_redundant_ik_within_limits(redundant_robot):
     for s in (free, strict):
         np.testing.assert_allclose(s.position, position, atol=1e-9)
     assert strict.q.shape == (9,)
+
+
+def test_least_norm_steps_from_the_last_factorization():
+    robot = tdpcr.Robot(tdpcr.Design.load(DESIGNS / "lilge2022_redundant.ron"))
+    assert robot.reuse_least_norm_factorization is False
+    robot.reuse_least_norm_factorization = True
+    assert robot.reuse_least_norm_factorization is True
+    last = robot.ik(np.zeros(3))
+    home = last.state
+    jacobians = []
+    for x in [0.001, 0.0] * 4:
+        last = robot.ik(home.position + [x, 0.0, 0.0], last.rotvec, init=last)
+        np.testing.assert_allclose(last.position, home.position + [x, 0.0, 0.0], atol=1e-9)
+        jacobians.append(last.jacobian_evaluations)
+    # After the first round trip, chord steps on the first factorization only.
+    assert sum(jacobians[2:]) == 0, jacobians
 
 
 def test_fk_many_equals_the_loop(robot):

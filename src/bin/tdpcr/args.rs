@@ -88,6 +88,12 @@ pub struct TrajectoryArgs {
     /// Redundancy resolution of every IK step, as in `ik` (only with --ik).
     #[command(flatten)]
     pub redundancy: RedundancyArgs,
+    /// Least-norm IK steps of the 9-DoF design (--ik, --limits free) start with chord
+    /// steps on the last step's factorization: about 4× faster per step, but q lands
+    /// elsewhere on the set of solutions than with fresh steps (library:
+    /// `Solver::reuse_least_norm_factorization`).
+    #[arg(long)]
+    pub reuse_factorization: bool,
     #[command(flatten)]
     pub solve: SolveArgs,
 }

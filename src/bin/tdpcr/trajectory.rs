@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use tdpcr::SolveError;
 use tdpcr::error::{Error, Violations};
+use tdpcr::kinetostatics::Redundancy;
 use tdpcr::model::Pose;
 use tdpcr::trajectory::{Stats, StepResult, Targets, run_trajectory_from};
 
@@ -38,6 +39,19 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
         return Err(Error::Input(v));
     }
     args.redundancy.apply(&mut solver)?;
+    if args.reuse_factorization {
+        let least_norm_ik = args.ik.is_some() && solver.redundancy == Redundancy::LeastNorm;
+        if !least_norm_ik || solver.model().pairs == 1 {
+            let mut v = Violations::default();
+            v.push(
+                "--reuse-factorization",
+                "given",
+                "only with --ik and --limits free on a design with two tendon pairs per leg (least-norm IK steps)",
+            );
+            return Err(Error::Input(v));
+        }
+        solver.reuse_least_norm_factorization = true;
+    }
     if let Some(state) = &init {
         solver.check_warm_start(state)?;
     }
