@@ -946,7 +946,8 @@ pub trait StepRule<S> {
 }
 
 /// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
-/// multiple of the tolerance. An underdetermined system has a manifold of solutions, and
+/// multiple of the tolerance (unless its rule [starts with chord
+/// steps](StepRule::starts_with_chord)). An underdetermined system has a manifold of solutions, and
 /// a chord step lands on it elsewhere than a Newton step, by about ‖δx_prev‖ · ‖δx‖ (the
 /// Jacobian's change times the step): chord steps from the first iterate of a warm 1 mm
 /// IK step of the 9-DoF design moved q by 2.9e-9 m; in this tail, by at most 1.4e-12 m

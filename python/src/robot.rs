@@ -149,7 +149,7 @@ impl Robot {
     }
 
     /// Whether a least-norm `ik` of the 9-DoF design from this robot's last least-norm
-    /// solution starts with chord steps on that solve's factorization
+    /// solution starts with chord steps on the latest least-norm factorization
     /// (`Solver::reuse_least_norm_factorization`; default false).
     #[getter]
     fn get_reuse_least_norm_factorization(&self) -> bool {

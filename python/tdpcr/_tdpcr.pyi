@@ -119,9 +119,9 @@ class Robot:
     @property
     def reuse_least_norm_factorization(self) -> bool:
         """Whether a least-norm ``ik`` of the 9-DoF design from this robot's last
-        least-norm solution (``init``) starts with chord steps on that solve's
-        factorization (default False): a 1 mm step then costs residuals only (about 4× less
-        time), but lands elsewhere on the set of solutions than fresh steps (q up to
+        least-norm solution (``init``) starts with chord steps on the robot's latest
+        least-norm factorization (default False): going back and forth, a 1 mm step then
+        costs residuals only (about 4× less time), but lands elsewhere on the set of solutions than fresh steps (q up to
         1.8e-5 m apart after 30 steps of 1 mm). See the README's library notes."""
     @reuse_least_norm_factorization.setter
     def reuse_least_norm_factorization(self, on: bool) -> None: ...

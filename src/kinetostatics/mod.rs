@@ -106,7 +106,8 @@ pub struct Solver {
     pub reuse_jacobian: bool,
     /// Whether a least-norm IK of the 9-DoF design ([`Redundancy::LeastNorm`]) whose
     /// guess is this solver's last least-norm solution starts with chord steps on the
-    /// last run's factorized least-norm step (taken while each contracts the residual
+    /// latest factorized least-norm step (of the last Jacobian such a run evaluated;
+    /// taken while each contracts the residual
     /// tenfold, then fresh Jacobians) instead of a Jacobian at its start. Off by default:
     /// such a step costs residuals only (a 1 mm step back and forth: 4 residuals, no
     /// Jacobian; BENCHMARKS.md), but the redundant IK has a set of solutions and chord

@@ -1,7 +1,7 @@
 //! The shooting problem of FK and square IK (MODEL.md §3) as a [`NonlinearSystem`] for
 //! the dogleg Newton of [`crate::newton::solve`]: unknowns, residual row weights, the
 //! step limit at tendon kinks, the retraction of rotation unknowns, and the Newton run
-//! from a guess (with the tangent predictor of [`super::predictor`]).
+//! from a guess (with the predictor of [`super::predictor`]).
 //!
 //! - FK: given q and the wrench, unknowns [p_ee (3), θ_ee (3), y_u (3 (6 + n_t))];
 //!   Jacobian \[B_x B_u\]. Rotation steps compose: R ← exp(δθ^) R.
@@ -99,7 +99,7 @@ pub(super) fn run_with(
         problem,
         wrench,
     };
-    // From the tangent prediction if there is one; from the guess itself if that fails.
+    // From the prediction if there is one; from the guess itself if that fails.
     let report = match predicted {
         Some(mut xp) => match newton::solve(&mut system, &mut xp, settings, &mut solver.newton) {
             Ok(r) => {

@@ -89,9 +89,9 @@ pub struct TrajectoryArgs {
     #[command(flatten)]
     pub redundancy: RedundancyArgs,
     /// Least-norm IK steps of the 9-DoF design (--ik, --limits free) start with chord
-    /// steps on the last step's factorization: about 4× faster per step, but q lands
-    /// elsewhere on the set of solutions than with fresh steps (library:
-    /// `Solver::reuse_least_norm_factorization`).
+    /// steps on the latest least-norm factorization (back and forth about 4× faster per
+    /// step), but q lands elsewhere on the set of solutions than with fresh steps
+    /// (library: `Solver::reuse_least_norm_factorization`).
     #[arg(long)]
     pub reuse_factorization: bool,
     #[command(flatten)]
