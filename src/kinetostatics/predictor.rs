@@ -5,6 +5,8 @@
 //! [`PREDICTOR_POINTS`]) corrected to first order for where the new target leaves the
 //! extrapolated path ([`extrapolated_start`]).
 
+use std::borrow::Cow;
+
 use nalgebra::{DVector, Rotation3, Vector3};
 
 use super::Solver;
@@ -98,7 +100,7 @@ pub(super) fn predict(solver: &Solver, problem: Problem, x: &DVector<f64>) -> Op
         .then(|| extrapolated_start(&solver.model, problem, &last.path))
         .flatten();
     let (from, dq, dp, dtheta) = match extrapolated {
-        Some(start) => start,
+        Some((from, dq, dp, dtheta)) => (Cow::Owned(from), dq, dp, dtheta),
         None => {
             let (dq, dp, dtheta) = match problem {
                 Problem::Forward { q } => {
@@ -113,7 +115,7 @@ pub(super) fn predict(solver: &Solver, problem: Problem, x: &DVector<f64>) -> Op
                     (Vec::new(), pose.position - from.position, dtheta)
                 }
             };
-            (x.clone(), dq, dp, dtheta)
+            (Cow::Borrowed(x), dq, dp, dtheta)
         }
     };
     let mut rhs = DVector::zeros(solver.model.n_residuals());
