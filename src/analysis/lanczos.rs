@@ -239,16 +239,22 @@ fn start_vector(x: &mut [f64]) {
 
 /// The largest eigenvalue θ of the symmetric tridiagonal T (diagonal `alpha`,
 /// off-diagonal `beta`) and the last component s of its unit eigenvector, by Newton's
-/// method on the characteristic polynomial χ from the upper bound
-/// max(θ_prev, α_k) + β_{k−1} (Weyl; θ_prev is the largest eigenvalue of T without its
-/// last row and column). From above the largest root, Newton decreases monotonically to
+/// method on the characteristic polynomial χ from an upper bound: the larger eigenvalue
+/// of \[\[θ_prev, β_{k−1}\], \[β_{k−1}, α_k\]\] (θ_prev is the largest eigenvalue of T
+/// without its last row and column). From above the largest root, Newton decreases monotonically to
 /// it. s² = χ_{k−1}(θ)/χ_k′(θ).
 fn top_ritz(alpha: &[f64], beta: &[f64], theta_prev: f64) -> (f64, f64) {
     let k = alpha.len();
     if k == 1 {
         return (alpha[0], 1.0);
     }
-    let upper = theta_prev.max(alpha[k - 1]) + beta[k - 2];
+    // The larger eigenvalue of [[θ_prev, β], [β, α_k]] bounds T's from above (for a unit
+    // [x; ξ]: xᵀT_{k−1}x + 2βξ(eᵀx) + α_k ξ² ≤ (‖x‖, |ξ|) of that 2 × 2 form), and lies
+    // within about β²/(θ_prev − α_k) of θ where Weyl's max(θ_prev, α_k) + β lies within β:
+    // 6.1 → 3.8 Newton steps per call on average (9-DoF bench configuration).
+    let (a_k, b_k) = (alpha[k - 1], beta[k - 2]);
+    let half = 0.5 * (theta_prev - a_k);
+    let upper = 0.5 * (theta_prev + a_k) + half.hypot(b_k);
     if !(upper > 0.0 && upper.is_finite()) {
         return (upper, 1.0);
     }
@@ -335,7 +341,7 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
 // the textbook loops; measured 20 % faster at n = 30).
 
 /// y = R x.
-fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
+pub(crate) fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
     let n = r.n;
     y[..n].fill(0.0);
     let mut j = 0;

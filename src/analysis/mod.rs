@@ -45,7 +45,7 @@ use crate::boundary::BoundaryJacobians;
 use crate::model::Model;
 use crate::rod::tendon::tension;
 use lanczos::{Lanczos, Start};
-use qr::{LegQr, Scales, back_substitute, back_substitute_rows};
+use qr::{LegQr, Scales, WideBuffers, back_substitute, back_substitute_rows};
 
 pub use crate::error::AnalysisError;
 pub use ellipsoid::Ellipsoid;
@@ -278,8 +278,12 @@ impl Factors {
         let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
         let ny = 3 * nu;
         let n = ny + 6;
-        let mut lz = Lanczos::new(n + 3);
-        let raw = Triangles::new(blocks, nu, None, &mut lz);
+        let mut work = Work {
+            lz: Lanczos::new(n + 3),
+            wide: WideBuffers::default(),
+            start: vec![0.0; n + 3],
+        };
+        let raw = Triangles::new(blocks, nu, None, &mut work);
         let scaling = UnitScaling::new(model);
         let row_scale: Vec<f64> = (0..n).map(|i| 1.0 / scaling.row(i)).collect();
         let col_scales: [Vec<f64>; 3] = [
@@ -292,7 +296,7 @@ impl Factors {
             rows: &row_scale,
             cols: &cols,
         };
-        let scaled_rconds = Triangles::new(blocks, nu, Some(scales), &mut lz).rconds;
+        let scaled_rconds = Triangles::new(blocks, nu, Some(scales), &mut work).rconds;
         Ok(Self {
             raw,
             scaled_rconds,
@@ -443,6 +447,14 @@ fn inverse_jacobian(
     (j_ik, lambda_ik)
 }
 
+/// Work buffers of one analysis, shared by the raw and the scaled [`Triangles`].
+struct Work {
+    lz: Lanczos,
+    wide: WideBuffers,
+    /// A Lanczos start vector.
+    start: Vec<f64>,
+}
+
 /// The triangular factors of \[B_u B_x\], B_u and (if square) \[B_u B_q\] from one
 /// [`LegQr`], and the rcond of the three matrices.
 struct Triangles {
@@ -456,7 +468,8 @@ struct Triangles {
 
 impl Triangles {
     /// Factors `[B_u | B_x | B_q (| B_w without scales)]`, scaled if `scales` are given.
-    fn new(b: &BoundaryJacobians, nu: usize, scales: Option<Scales>, lz: &mut Lanczos) -> Self {
+    fn new(b: &BoundaryJacobians, nu: usize, scales: Option<Scales>, work: &mut Work) -> Self {
+        let Work { lz, wide, start } = work;
         let (ny, nq) = (b.b_u.ncols(), b.b_q.ncols());
         let n = ny + 6;
         let legs = if scales.is_some() {
@@ -494,17 +507,24 @@ impl Triangles {
             (Some(q), rc)
         } else {
             // Wide [B_u B_q] (n × (n + 3)): its σ are those of the tall transpose.
-            let r_t = qr::wide_triangle(&legs, qc.clone());
-            let tri = qr::Triangle {
-                data: r_t.as_slice(),
-                n,
-                ld: n,
-            };
+            let tri = qr::wide_triangle(&legs, qc.clone(), wide);
             let min = lz.sigma_min(tri);
             let max = if norm_q <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
                 0.5 * (sigma_u + (sigma_u * sigma_u + norm_q).sqrt())
             } else {
-                lz.sigma_max(tri, Start::Random)
+                // M's top left singular vector is near [R_u v_u; 0] (v_u: R_u's top right
+                // singular vector), and R's right ones are M's left ones reversed.
+                let start = &mut start[..n];
+                start.fill(0.0);
+                lanczos::upper_mul(legs.triangle(ny), &v_u, start);
+                start.reverse();
+                let norm = lanczos::dot(start, start).sqrt();
+                if norm > 0.0 && norm.is_finite() {
+                    start.iter_mut().for_each(|x| *x /= norm);
+                    lz.sigma_max(tri, Start::Given(start))
+                } else {
+                    lz.sigma_max(tri, Start::Random)
+                }
             };
             (None, ellipsoid::ratio(min, max))
         };
