@@ -29,6 +29,32 @@
 //! [`Solver::blocks_at`](crate::kinetostatics::Solver::blocks_at) does (and
 //! [`Solver::analyze`](crate::kinetostatics::Solver::analyze) with it).
 
+/// `$vis fn $name(args) -> ret` that runs `$inline` (an `#[inline(always)]` function of
+/// the same arguments) compiled for AVX2 where the CPU has it (detected at run time; the
+/// same operations in the same order, so the results are bitwise identical either way),
+/// with one AVX2 copy per function (inlining whole stages into one AVX2 function made it
+/// ~60 k instructions long and no faster).
+macro_rules! avx2_dispatch {
+    ($(#[$m:meta])* $vis:vis fn $name:ident = $avx2:ident / $inline:path;
+        ($($arg:ident: $ty:ty),*) $(-> $ret:ty)?) => {
+        $(#[$m])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { $avx2($($arg),*) };
+            }
+            $inline($($arg),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn $avx2($($arg: $ty),*) $(-> $ret)? {
+            $inline($($arg),*)
+        }
+    };
+}
+
 pub mod ellipsoid;
 mod lanczos;
 #[cfg(feature = "plots")]
@@ -209,10 +235,9 @@ pub fn analyze_blocks(
     y_u: &[f64],
     settings: &AnalysisSettings,
 ) -> Result<Analysis, AnalysisError> {
-    let mut f = Factors::new(model, blocks, y_u)?;
-    let (ny, n, nq) = (f.ny, f.n, f.nq);
     // [B_u B_x] [δy; δx] = −[B_q B_w] [δq; δw]; with Qᵀ applied, R_x Z = Qᵀ [B_q B_w].
-    f.solve(0)?;
+    let mut f = Factors::new(model, blocks, y_u, 0)?;
+    let (ny, n, nq) = (f.ny, f.n, f.nq);
     let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
     let lambda_fk = -z.view((0, n), (ny, nq));
@@ -249,9 +274,9 @@ pub fn condition_blocks(
     y_u: &[f64],
     settings: &AnalysisSettings,
 ) -> Result<Conditioning, AnalysisError> {
-    let mut f = Factors::new(model, blocks, y_u)?;
-    let (ny, n, nq) = (f.ny, f.n, f.nq);
-    f.solve(ny)?;
+    let ny = 3 * model.n_leg_unknowns();
+    let f = Factors::new(model, blocks, y_u, ny)?;
+    let (n, nq) = (f.n, f.nq);
     let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
     let compliance = -z.view((ny, n + nq), (6, 6));
@@ -273,7 +298,30 @@ struct Factors {
 }
 
 impl Factors {
-    fn new(model: &Model, blocks: &BoundaryJacobians, y_u: &[f64]) -> Result<Self, AnalysisError> {
+    /// [`Factors::factor`], then [`Factors::solve`] for rows `from..n` of Z.
+    ///
+    /// # Errors
+    /// As [`Factors::factor`] and [`Factors::solve`].
+    fn new(
+        model: &Model,
+        blocks: &BoundaryJacobians,
+        y_u: &[f64],
+        from: usize,
+    ) -> Result<Self, AnalysisError> {
+        let mut f = Self::factor(model, blocks, y_u)?;
+        f.solve(from)?;
+        Ok(f)
+    }
+
+    /// The raw and unit-scaled triangles and their rconds.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Shape`] or [`AnalysisError::NonFinite`] for inputs that do not fit.
+    fn factor(
+        model: &Model,
+        blocks: &BoundaryJacobians,
+        y_u: &[f64],
+    ) -> Result<Self, AnalysisError> {
         check_inputs(model, blocks, y_u)?;
         let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
         let ny = 3 * nu;
@@ -282,6 +330,7 @@ impl Factors {
             lz: Lanczos::new(n + 3),
             wide: WideBuffers::default(),
             start: vec![0.0; n + 3],
+            v_u: Vec::with_capacity(n),
         };
         let raw = Triangles::new(blocks, nu, None, &mut work);
         let scaling = UnitScaling::new(model);
@@ -453,6 +502,8 @@ struct Work {
     wide: WideBuffers,
     /// A Lanczos start vector.
     start: Vec<f64>,
+    /// R_u's top right singular vector.
+    v_u: Vec<f64>,
 }
 
 /// The triangular factors of \[B_u B_x\], B_u and (if square) \[B_u B_q\] from one
@@ -469,7 +520,12 @@ struct Triangles {
 impl Triangles {
     /// Factors `[B_u | B_x | B_q (| B_w without scales)]`, scaled if `scales` are given.
     fn new(b: &BoundaryJacobians, nu: usize, scales: Option<Scales>, work: &mut Work) -> Self {
-        let Work { lz, wide, start } = work;
+        let Work {
+            lz,
+            wide,
+            start,
+            v_u,
+        } = work;
         let (ny, nq) = (b.b_u.ncols(), b.b_q.ncols());
         let n = ny + 6;
         let legs = if scales.is_some() {
@@ -480,20 +536,10 @@ impl Triangles {
         let ncols = legs.w.ncols();
         let (xc, qc) = (ny..n, n..n + nq);
         let sigma_u = lz.sigma_max(legs.triangle(ny), Start::Random);
-        let v_u = lz.ritz().to_vec();
+        v_u.clear();
+        v_u.extend_from_slice(lz.ritz());
+        let v_u = &v_u[..];
         let rcond_u = ellipsoid::ratio(lz.sigma_min(legs.triangle(ny)), sigma_u);
-        // σ_max([B_u E]) lies in [σ_max(B_u), (σ_max(B_u)² + ‖E‖²)^½]: when that is
-        // narrower than the Lanczos tolerance, take its middle.
-        let column_norm = |qr: &LegQr, cols: std::ops::Range<usize>| {
-            cols.map(|c| qr.w.column(c).norm_squared()).sum::<f64>()
-        };
-        let sigma_max = |lz: &mut Lanczos, qr: &LegQr, extra: f64| {
-            if extra <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
-                0.5 * (sigma_u + (sigma_u * sigma_u + extra).sqrt())
-            } else {
-                lz.sigma_max(qr.triangle(n), Start::Given(&v_u))
-            }
-        };
         let (norm_x, norm_q) = (
             column_norm(&legs, xc.clone()),
             column_norm(&legs, qc.clone()),
@@ -502,41 +548,79 @@ impl Triangles {
             let mut q = legs.clone();
             q.swap_columns(xc.clone(), qc.clone());
             q.finish(xc.clone(), qc.clone());
-            let max = sigma_max(lz, &q, norm_q);
+            let max = sigma_max_extended(lz, q.triangle(n), sigma_u, norm_q, Start::Given(v_u));
             let rc = ellipsoid::ratio(lz.sigma_min(q.triangle(n)), max);
             (Some(q), rc)
         } else {
-            // Wide [B_u B_q] (n × (n + 3)): its σ are those of the tall transpose.
-            let tri = qr::wide_triangle(&legs, qc.clone(), wide);
-            let min = lz.sigma_min(tri);
-            let max = if norm_q <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
-                0.5 * (sigma_u + (sigma_u * sigma_u + norm_q).sqrt())
-            } else {
-                // M's top left singular vector is near [R_u v_u; 0] (v_u: R_u's top right
-                // singular vector), and R's right ones are M's left ones reversed.
-                let start = &mut start[..n];
-                start.fill(0.0);
-                lanczos::upper_mul(legs.triangle(ny), &v_u, start);
-                start.reverse();
-                let norm = lanczos::dot(start, start).sqrt();
-                if norm > 0.0 && norm.is_finite() {
-                    start.iter_mut().for_each(|x| *x /= norm);
-                    lz.sigma_max(tri, Start::Given(start))
-                } else {
-                    lz.sigma_max(tri, Start::Random)
-                }
-            };
-            (None, ellipsoid::ratio(min, max))
+            (None, 0.0)
         };
+        // Wide [B_u B_q] (n × (n + 3), 9-DoF): its σ are those of the tall transpose,
+        // formed before `finish` changes the rows below R_u; its σ_min and σ_max come
+        // last.
+        let wide = if nq == 6 {
+            None
+        } else {
+            qr::wide_triangle(&legs, qc.clone(), wide);
+            Some(wide.triangle(n))
+        };
+        if wide.is_some() {
+            // M's top left singular vector is near [R_u v_u; 0] (v_u: R_u's top right
+            // singular vector), and R's right ones are M's left ones reversed.
+            let start = &mut start[..n];
+            start.fill(0.0);
+            lanczos::upper_mul(legs.triangle(ny), v_u, start);
+            start.reverse();
+            let norm = lanczos::dot(start, start).sqrt();
+            if norm > 0.0 && norm.is_finite() {
+                start.iter_mut().for_each(|x| *x /= norm);
+            } else {
+                start.fill(0.0);
+            }
+        }
         let mut x = legs;
         x.finish(xc.clone(), n..ncols);
-        let max = sigma_max(lz, &x, norm_x);
+        let max = sigma_max_extended(lz, x.triangle(n), sigma_u, norm_x, Start::Given(v_u));
         let rcond_x = ellipsoid::ratio(lz.sigma_min(x.triangle(n)), max);
+        let rcond_q = match wide {
+            None => rcond_q,
+            Some(tri) => {
+                let min = lz.sigma_min(tri);
+                let start = if start[0..n].iter().all(|&x| x == 0.0) {
+                    Start::Random
+                } else {
+                    Start::Given(&start[..n])
+                };
+                let max = sigma_max_extended(lz, tri, sigma_u, norm_q, start);
+                ellipsoid::ratio(min, max)
+            }
+        };
         Self {
             x,
             q,
             rconds: [rcond_x, rcond_q, rcond_u],
         }
+    }
+}
+
+/// Σ ‖column‖² over the columns `cols` of `qr.w`.
+fn column_norm(qr: &LegQr, cols: std::ops::Range<usize>) -> f64 {
+    cols.map(|c| qr.w.column(c).norm_squared()).sum::<f64>()
+}
+
+/// σ_max(\[B_u E\]) from its triangle `r`, σ_u = σ_max(B_u) and ‖E‖_F² = `extra`: it
+/// lies in \[σ_u, (σ_u² + ‖E‖²)^½\]; when that is narrower than the Lanczos tolerance,
+/// the middle, otherwise Lanczos from `start`.
+fn sigma_max_extended(
+    lz: &mut Lanczos,
+    r: qr::Triangle,
+    sigma_u: f64,
+    extra: f64,
+    start: Start,
+) -> f64 {
+    if extra <= 4.0 * lanczos::TOLERANCE * sigma_u * sigma_u {
+        0.5 * (sigma_u + (sigma_u * sigma_u + extra).sqrt())
+    } else {
+        lz.sigma_max(r, start)
     }
 }
 

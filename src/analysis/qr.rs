@@ -43,11 +43,13 @@ pub(crate) struct Triangle<'a> {
 
 impl Triangle<'_> {
     /// Column j's entries on and above the diagonal.
+    #[inline(always)]
     pub fn column(&self, j: usize) -> &[f64] {
         &self.data[j * self.ld..j * self.ld + j + 1]
     }
 
     /// Whether a diagonal entry is zero or not finite.
+    #[inline(always)]
     pub fn is_singular(&self) -> bool {
         (0..self.n).any(|j| {
             let d = self.data[j * self.ld + j];
@@ -65,20 +67,21 @@ impl LegQr {
     /// If the sizes do not agree (a programmer error; callers check the model).
     #[track_caller]
     pub fn new(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
+        leg_qr(blocks, nu, scales)
+    }
+
+    #[inline(always)]
+    fn new_inline(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
         let ny = blocks[0].ncols();
         let m = blocks[0].nrows();
         assert!(ny == 3 * nu && m == ny + PLATFORM, "LegQr: block sizes");
         let ncols: usize = blocks.iter().map(|b| b.ncols()).sum();
         // Load order: leg 1 (original rows 6..6 + nu), platform (0..6), legs 2 and 3.
-        let original = |r: usize| {
-            if r < nu {
-                PLATFORM + r
-            } else if r < nu + PLATFORM {
-                r - nu
-            } else {
-                r
-            }
-        };
+        let segments = [
+            (0..nu, PLATFORM),
+            (nu..nu + PLATFORM, 0),
+            (nu + PLATFORM..m, nu + PLATFORM),
+        ];
         let mut w = DMatrix::zeros(m, ncols);
         let data = w.as_mut_slice();
         let mut col = 0;
@@ -86,18 +89,18 @@ impl LegQr {
             assert_eq!(block.nrows(), m, "LegQr: block rows");
             for c in 0..block.ncols() {
                 let src = block.column(c);
+                let src = src.as_slice();
                 let dst = &mut data[col * m..(col + 1) * m];
-                match &scales {
-                    None => {
-                        for (r, x) in dst.iter_mut().enumerate() {
-                            *x = src[original(r)];
-                        }
-                    }
-                    Some(s) => {
-                        let cs = s.cols[b][c];
-                        for (r, x) in dst.iter_mut().enumerate() {
-                            let i = original(r);
-                            *x = s.rows[i] * src[i] * cs;
+                for (rows, from) in segments.clone() {
+                    let (dst, src) = (&mut dst[rows.clone()], &src[from..from + rows.len()]);
+                    match &scales {
+                        None => dst.copy_from_slice(src),
+                        Some(s) => {
+                            let cs = s.cols[b][c];
+                            let rs = &s.rows[from..from + rows.len()];
+                            for ((x, v), r) in dst.iter_mut().zip(src).zip(rs) {
+                                *x = r * v * cs;
+                            }
                         }
                     }
                 }
@@ -123,6 +126,11 @@ impl LegQr {
     /// Triangularizes the 6-row remainder of the columns `cols` (one reflector per
     /// column over the platform rows), applying the reflectors to the columns `also`.
     pub fn finish(&mut self, cols: Range<usize>, also: Range<usize>) {
+        finish(self, cols, also);
+    }
+
+    #[inline(always)]
+    fn finish_inline(&mut self, cols: Range<usize>, also: Range<usize>) {
         let m = self.w.nrows();
         for (k, c) in cols.clone().enumerate().take(m - self.ny) {
             self.reflect_at(c, self.ny + k, m, c + 1..cols.end, also.clone());
@@ -130,6 +138,7 @@ impl LegQr {
     }
 
     /// Swaps two column ranges of equal length.
+    #[inline(always)]
     pub fn swap_columns(&mut self, a: Range<usize>, b: Range<usize>) {
         for (i, j) in a.zip(b) {
             self.w.swap_columns(i, j);
@@ -147,12 +156,14 @@ impl LegQr {
     }
 
     /// Householder reflector for column `col` with its diagonal at row `col`.
+    #[inline(always)]
     fn reflect(&mut self, col: usize, end: usize, a: Range<usize>, b: Range<usize>) {
         self.reflect_at(col, col, end, a, b);
     }
 
     /// Householder reflector H = I − τ v vᵀ that zeroes column `col` over rows
     /// `diag + 1..end` into row `diag`, applied to the column ranges `a` and `b`.
+    #[inline(always)]
     fn reflect_at(
         &mut self,
         col: usize,
@@ -174,25 +185,22 @@ impl LegQr {
         let alpha = if v[0] > 0.0 { -norm } else { norm };
         v[0] -= alpha;
         let tau = 2.0 / v.iter().map(|x| x * x).sum::<f64>();
-        if len <= BLOCK && BLOCK <= m {
-            // Fixed-length kernel on a window of BLOCK rows around diag..end: the other
-            // rows of the window see a zero multiple of v.
-            let start = diag.min(m - BLOCK);
-            let mut vp = [0.0; BLOCK];
-            vp[diag - start..diag - start + len].copy_from_slice(v);
-            for c in a.chain(b) {
-                let x: &mut [f64; BLOCK] = (&mut data[c * m + start..c * m + start + BLOCK])
-                    .try_into()
-                    .expect("BLOCK rows");
-                apply_block(&vp, tau, x);
-            }
-        } else {
-            for c in a.chain(b) {
-                let x = &mut data[c * m + diag..c * m + end];
-                let s = tau * super::lanczos::dot(x, v);
-                if s != 0.0 {
-                    for (p, q) in x.iter_mut().zip(v.iter()) {
-                        *p -= s * q;
+        let cols = a.chain(b);
+        // The shortest fixed-length kernel that holds the reflector (rows of the window
+        // outside diag..end see a zero multiple of v).
+        match len {
+            ..=4 if 4 <= m => apply_window::<4>(data, m, diag, v, tau, cols),
+            ..=8 if 8 <= m => apply_window::<8>(data, m, diag, v, tau, cols),
+            ..=12 if 12 <= m => apply_window::<12>(data, m, diag, v, tau, cols),
+            ..=16 if 16 <= m => apply_window::<16>(data, m, diag, v, tau, cols),
+            _ => {
+                for c in cols {
+                    let x = &mut data[c * m + diag..c * m + end];
+                    let s = tau * super::lanczos::dot(x, v);
+                    if s != 0.0 {
+                        for (p, q) in x.iter_mut().zip(v.iter()) {
+                            *p -= s * q;
+                        }
                     }
                 }
             }
@@ -203,15 +211,44 @@ impl LegQr {
     }
 }
 
-/// Rows of the fixed-length reflector kernel (a leg's rows plus the platform rows fit
-/// for up to 4 tendons per leg).
-const BLOCK: usize = 16;
+avx2_dispatch! {
+    fn leg_qr = leg_qr_avx2 / LegQr::new_inline;
+        (blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> LegQr
+}
 
-/// x ← (I − τ v vᵀ) x for one column of BLOCK rows.
-#[inline]
-fn apply_block(v: &[f64; BLOCK], tau: f64, x: &mut [f64; BLOCK]) {
+avx2_dispatch! {
+    fn finish = finish_avx2 / LegQr::finish_inline;
+        (qr: &mut LegQr, cols: Range<usize>, also: Range<usize>)
+}
+
+/// Applies the reflector I − τ v vᵀ (v over rows diag..diag + v.len(), at most L) to the
+/// columns `cols` of the column-major `data` (m rows), on a window of L rows that holds
+/// diag..diag + v.len().
+#[inline(always)]
+fn apply_window<const L: usize>(
+    data: &mut [f64],
+    m: usize,
+    diag: usize,
+    v: &[f64],
+    tau: f64,
+    cols: impl Iterator<Item = usize>,
+) {
+    let start = diag.min(m - L);
+    let mut vp = [0.0; L];
+    vp[diag - start..diag - start + v.len()].copy_from_slice(v);
+    for c in cols {
+        let x: &mut [f64; L] = (&mut data[c * m + start..c * m + start + L])
+            .try_into()
+            .expect("L rows");
+        apply_block(&vp, tau, x);
+    }
+}
+
+/// x ← (I − τ v vᵀ) x for one column of L rows (L a multiple of 4).
+#[inline(always)]
+fn apply_block<const L: usize>(v: &[f64; L], tau: f64, x: &mut [f64; L]) {
     let mut acc = [0.0; 4];
-    for i in 0..BLOCK / 4 {
+    for i in 0..L / 4 {
         for l in 0..4 {
             acc[l] += v[4 * i + l] * x[4 * i + l];
         }
@@ -238,10 +275,17 @@ pub(crate) fn back_substitute(qr: &mut LegQr, n: usize, b: Range<usize>) -> bool
     back_substitute_rows(qr, n, b, 0)
 }
 
-/// [`back_substitute`] for rows `from..n` of the solution only (a column-oriented back
-/// substitution finishes the bottom rows first, so these rows equal those of the full
-/// solve bit for bit); rows above `from` are left partly reduced.
-pub(crate) fn back_substitute_rows(qr: &mut LegQr, n: usize, b: Range<usize>, from: usize) -> bool {
+avx2_dispatch! {
+    /// [`back_substitute`] for rows `from..n` of the solution only (a column-oriented back
+    /// substitution finishes the bottom rows first, so these rows equal those of the full
+    /// solve bit for bit); rows above `from` are left partly reduced.
+    pub(crate) fn back_substitute_rows = back_substitute_rows_avx2 / back_substitute_rows_inline;
+        (qr: &mut LegQr, n: usize, b: Range<usize>, from: usize) -> bool
+}
+
+/// The body of [`back_substitute_rows`].
+#[inline(always)]
+fn back_substitute_rows_inline(qr: &mut LegQr, n: usize, b: Range<usize>, from: usize) -> bool {
     if qr.triangle(n).is_singular() {
         return false;
     }
@@ -293,11 +337,8 @@ pub(crate) struct WideBuffers {
 /// from column 6 on, the staircase row; the buffers live in `buf`. Before (an index list
 /// per column, a fresh `DMatrix` and four vectors per call): 82.4 k instructions per call
 /// (callgrind, 9-DoF bench configuration); after: see the commit.
-pub(crate) fn wide_triangle<'a>(
-    qr: &LegQr,
-    c: Range<usize>,
-    buf: &'a mut WideBuffers,
-) -> Triangle<'a> {
+#[inline(always)]
+fn wide_triangle_inline(qr: &LegQr, c: Range<usize>, buf: &mut WideBuffers) {
     let (n, ny, nq) = (qr.w.nrows(), qr.ny, c.len());
     debug_assert!(nq > PLATFORM && n == ny + PLATFORM);
     let w = qr.w.as_slice();
@@ -375,10 +416,23 @@ pub(crate) fn wide_triangle<'a>(
             *e = *x;
         }
     }
-    Triangle {
-        data: &buf.r[..n * n],
-        n,
-        ld: n,
+}
+
+avx2_dispatch! {
+    /// Forms the wide triangle in `buf` (see [`wide_triangle_inline`]; read it with
+    /// [`WideBuffers::triangle`]).
+    pub(crate) fn wide_triangle = wide_triangle_avx2 / wide_triangle_inline;
+        (qr: &LegQr, c: Range<usize>, buf: &mut WideBuffers)
+}
+
+impl WideBuffers {
+    /// The n × n triangle of the last [`wide_triangle`].
+    pub fn triangle(&self, n: usize) -> Triangle<'_> {
+        Triangle {
+            data: &self.r[..n * n],
+            n,
+            ld: n,
+        }
     }
 }
 
@@ -445,7 +499,8 @@ mod tests {
         let mut buf = WideBuffers::default();
         // Garbage in the buffers must not matter (only the upper triangle is read).
         buf.r = vec![f64::NAN; n * n];
-        let t = wide_triangle(&qr, ny..ny + 9, &mut buf);
+        wide_triangle(&qr, ny..ny + 9, &mut buf);
+        let t = buf.triangle(n);
         let r = DMatrix::from_fn(n, n, |i, j| if i <= j { t.column(j)[i] } else { 0.0 });
         // RᵀR = P M Mᵀ P for M = Qᵀ[B_u C] (n × (n_y + 9)), P the reversal; R upper
         // triangular.
