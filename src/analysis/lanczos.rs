@@ -255,7 +255,7 @@ fn estimator_start(r: Triangle, inv: &[f64], tmp: &mut [f64], x: &mut [f64]) {
         let col = r.column(j);
         let s = dot(&col[..j], &tmp[..j]);
         let e = if s > 0.0 { -1.0 } else { 1.0 };
-        tmp[j] = (e - s) / col[j];
+        tmp[j] = (e - s) * inv[j];
     }
     solve_upper(r, inv, tmp, x);
 }
@@ -390,14 +390,20 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
 /// The four columns j..j + 4 of R over rows 0..j (above their diagonal block).
 #[inline(always)]
 fn above<'a>(r: Triangle<'a>, j: usize) -> [&'a [f64]; 4] {
-    let data = r.data;
-    [0, 1, 2, 3].map(|k| &data[(j + k) * r.ld..(j + k) * r.ld + j])
+    let (data, ld) = (r.data, r.ld);
+    let c = |k: usize| &data[(j + k) * ld..(j + k) * ld + j];
+    [c(0), c(1), c(2), c(3)]
 }
 
-/// R\[i, j\] for i ≤ j.
+/// The diagonal block R\[j..j + 4, j..j + 4\], by columns: `d[b][a]` = R\[j + a, j + b\]
+/// (entries below the diagonal are whatever the storage holds, and unused).
 #[inline(always)]
-fn at(r: Triangle, i: usize, j: usize) -> f64 {
-    r.data[j * r.ld + i]
+fn diagonal_block(r: Triangle, j: usize) -> [[f64; 4]; 4] {
+    let col = |b: usize| -> [f64; 4] {
+        let start = (j + b) * r.ld + j;
+        r.data[start..start + 4].try_into().expect("4 rows")
+    };
+    [col(0), col(1), col(2), col(3)]
 }
 
 /// y = R x.
@@ -413,10 +419,11 @@ pub(crate) fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
         for (yi, ((a, b), (d, e))) in y[..j].iter_mut().zip(cols) {
             *yi += (xs[0] * a + xs[1] * b) + (xs[2] * d + xs[3] * e);
         }
+        let d = diagonal_block(r, j);
         for a in 0..4 {
             let mut s = 0.0;
             for b in a..4 {
-                s += xs[b] * at(r, j + a, j + b);
+                s += xs[b] * d[b][a];
             }
             y[j + a] = s;
         }
@@ -431,12 +438,16 @@ pub(crate) fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
 #[inline(always)]
 fn dot4(c: [&[f64]; 4], x: &[f64]) -> [f64; 4] {
     let mut acc = [[0.0; 4]; 4];
-    let xs = x.chunks_exact(4);
-    let tail = xs.remainder();
-    let cs = c.map(|c| c.chunks_exact(4));
-    let rest = [0, 1, 2, 3].map(|k| cs[k].remainder());
-    let [c0, c1, c2, c3] = cs;
-    for ((xv, (a, b)), (d, e)) in xs.zip(c0.zip(c1)).zip(c2.zip(c3)) {
+    let whole = x.len() - x.len() % 4;
+    let (xs, tail) = x.split_at(whole);
+    let len = x.len();
+    let (c0, t0) = c[0][..len].split_at(whole);
+    let (c1, t1) = c[1][..len].split_at(whole);
+    let (c2, t2) = c[2][..len].split_at(whole);
+    let (c3, t3) = c[3][..len].split_at(whole);
+    let rows = c0.chunks_exact(4).zip(c1.chunks_exact(4));
+    let rows = rows.zip(c2.chunks_exact(4).zip(c3.chunks_exact(4)));
+    for (xv, ((a, b), (d, e))) in xs.chunks_exact(4).zip(rows) {
         for l in 0..4 {
             acc[0][l] += a[l] * xv[l];
             acc[1][l] += b[l] * xv[l];
@@ -444,10 +455,11 @@ fn dot4(c: [&[f64]; 4], x: &[f64]) -> [f64; 4] {
             acc[3][l] += e[l] * xv[l];
         }
     }
-    let mut out = acc.map(|a| (a[0] + a[1]) + (a[2] + a[3]));
-    for (k, o) in out.iter_mut().enumerate() {
-        for (p, q) in rest[k].iter().zip(tail) {
-            *o += p * q;
+    let sum = |a: [f64; 4]| (a[0] + a[1]) + (a[2] + a[3]);
+    let mut out = [sum(acc[0]), sum(acc[1]), sum(acc[2]), sum(acc[3])];
+    for (k, t) in [t0, t1, t2, t3].into_iter().enumerate() {
+        for (p, q) in t.iter().zip(tail) {
+            out[k] += p * q;
         }
     }
     out
@@ -460,9 +472,10 @@ fn upper_transpose_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
     let mut j = 0;
     while j + 4 <= n {
         let mut s = dot4(above(r, j), &x[..j]);
+        let d = diagonal_block(r, j);
         for b in 0..4 {
             for a in 0..=b {
-                s[b] += at(r, j + a, j + b) * x[j + a];
+                s[b] += d[b][a] * x[j + a];
             }
         }
         y[j..j + 4].copy_from_slice(&s);
@@ -480,13 +493,16 @@ fn solve_upper_transpose(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
     let mut j = 0;
     while j + 4 <= n {
         let s = dot4(above(r, j), &y[..j]);
+        let d = diagonal_block(r, j);
+        let mut ys = [0.0; 4];
         for b in 0..4 {
             let mut t = x[j + b] - s[b];
             for a in 0..b {
-                t -= at(r, j + a, j + b) * y[j + a];
+                t -= d[b][a] * ys[a];
             }
-            y[j + b] = t * inv[j + b];
+            ys[b] = t * inv[j + b];
         }
+        y[j..j + 4].copy_from_slice(&ys);
         j += 4;
     }
     for j in j..n {
@@ -511,10 +527,11 @@ fn solve_upper(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
     while j >= 4 {
         j -= 4;
         let mut ys = [0.0; 4];
+        let d = diagonal_block(r, j);
         for b in (0..4).rev() {
             let mut t = y[j + b];
             for a in b + 1..4 {
-                t -= at(r, j + b, j + a) * ys[a];
+                t -= d[a][b] * ys[a];
             }
             ys[b] = t * inv[j + b];
         }
