@@ -57,7 +57,9 @@ impl Lanczos {
     pub fn new(n: usize) -> Self {
         Self {
             work: Work {
-                basis: vec![0.0; n * n],
+                // Grown as the steps need it (zeroing n² entries per analysis cost more
+                // than the few steps use).
+                basis: Vec::with_capacity(n * n),
                 w: vec![0.0; n],
                 tmp: vec![0.0; n],
                 alpha: vec![0.0; n],
@@ -97,6 +99,7 @@ impl Lanczos {
     #[inline(always)]
     fn sigma_max_inline(&mut self, r: Triangle, start: Start) -> f64 {
         let n = r.n;
+        self.work.grow(n);
         let first = &mut self.work.basis[..n];
         match start {
             Start::Given(v) if !v.is_empty() && v.len() <= n => {
@@ -121,6 +124,7 @@ impl Lanczos {
         }
         let inv = &self.inv_diag[..n];
         let w = &mut self.work;
+        w.grow(n);
         estimator_start(r, inv, &mut w.tmp[..n], &mut w.basis[..n]);
         let norm = dot(&w.basis[..n], &w.basis[..n]).sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
@@ -175,6 +179,14 @@ impl Operator<'_> {
 }
 
 impl Work {
+    /// Makes the basis hold at least `len` entries.
+    #[inline(always)]
+    fn grow(&mut self, len: usize) {
+        if self.basis.len() < len {
+            self.basis.resize(len, 0.0);
+        }
+    }
+
     /// The largest eigenvalue of the symmetric positive semi-definite operator `op`, from
     /// the unit start vector in the first basis slot.
     #[inline(always)]
@@ -188,6 +200,7 @@ impl Work {
         let mut theta = 0.0;
         for k in 0..n {
             self.steps = k + 1;
+            self.grow((k + 2).min(n) * n);
             let (done, current) = self.basis.split_at_mut(k * n);
             let q = &current[..n];
             op.apply(q, &mut self.w[..n], &mut self.tmp[..n]);

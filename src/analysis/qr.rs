@@ -82,31 +82,27 @@ impl LegQr {
             (nu..nu + PLATFORM, 0),
             (nu + PLATFORM..m, nu + PLATFORM),
         ];
-        let mut w = DMatrix::zeros(m, ncols);
-        let data = w.as_mut_slice();
-        let mut col = 0;
+        // Filled column by column (no zeroing first).
+        let mut data = Vec::with_capacity(m * ncols);
         for (b, block) in blocks.iter().enumerate() {
             assert_eq!(block.nrows(), m, "LegQr: block rows");
             for c in 0..block.ncols() {
                 let src = block.column(c);
                 let src = src.as_slice();
-                let dst = &mut data[col * m..(col + 1) * m];
                 for (rows, from) in segments.clone() {
-                    let (dst, src) = (&mut dst[rows.clone()], &src[from..from + rows.len()]);
+                    let src = &src[from..from + rows.len()];
                     match &scales {
-                        None => dst.copy_from_slice(src),
+                        None => data.extend_from_slice(src),
                         Some(s) => {
                             let cs = s.cols[b][c];
                             let rs = &s.rows[from..from + rows.len()];
-                            for ((x, v), r) in dst.iter_mut().zip(src).zip(rs) {
-                                *x = r * v * cs;
-                            }
+                            data.extend(src.iter().zip(rs).map(|(v, r)| r * v * cs));
                         }
                     }
                 }
-                col += 1;
             }
         }
+        let w = DMatrix::from_vec(m, ncols, data);
         let mut qr = Self { w, ny };
         for leg in 0..3 {
             for j in leg * nu..(leg + 1) * nu {
