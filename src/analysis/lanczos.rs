@@ -12,6 +12,14 @@
 //! value converges (Paige), and the iteration stops there; at k = n the Krylov space is
 //! the whole space. σ_min starts from the LINPACK condition-estimator vector, σ_max from
 //! a fixed pseudo-random vector or a given one, so results are reproducible.
+//!
+//! Cost (callgrind, all Lanczos runs of one 9-DoF `analyze_blocks` at the bench
+//! configuration, before → after issue 19's work): σ_max 177 k → 102 k instructions,
+//! σ_min 256 k → 206 k. What it took: the triangular kernels below (four columns per
+//! pass), an AVX2 copy of both runs chosen at run time (`avx2_dispatch!`, the same
+//! operations in the same order), the operator as a plain enum (closures were compiled
+//! apart from the AVX2 copy), and a tighter start for the Newton iteration of
+//! [`top_ritz`] (6.1 → 3.8 steps per call).
 
 use super::qr::Triangle;
 
@@ -395,10 +403,15 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
 
 // The triangular kernels take four columns per pass over the vector: one load and store
 // of y (or one load of x) per four columns, four independent products per element, and
-// a chain of dependent operations per block of four instead of per column or pair. The
-// σ_max and σ_min operators (a pair of kernels per Lanczos step) took 0.4 µs per step at
-// n = 30–36 with two columns per pass (measured with timers around the operator, 9-DoF
-// bench configuration); see the commit for the time after.
+// a chain of dependent operations per block of four instead of per column or pair. With
+// two columns per pass the operators (a pair of kernels per Lanczos step) took 0.4 µs
+// per step at n = 30–36 (timers around the operator, 9-DoF bench configuration); four
+// columns with the 4 × 4 diagonal blocks read as arrays took the analysis from 61.2 to
+// 56.8 µs (examples/analysis_cost, interleaved runs). Inverting those 4 × 4 blocks once
+// per run (a product per block instead of four dependent substitutions) gave nothing
+// measurable (53.2 against 53.5 µs) and was dropped; so was forming R⁻¹ explicitly for
+// σ_min (products instead of solves: 62.8 → 73.5 µs, the n³/6 of the inverse costs more
+// than the solves it replaces).
 
 /// The four columns j..j + 4 of R over rows 0..j (above their diagonal block).
 #[inline(always)]
