@@ -504,9 +504,11 @@ mod tests {
         let c = DMatrix::from_fn(n, 9, |i, j| noise(i, j, 5));
         let qr = LegQr::new(&[&b_u, &c], nu, None);
         let ny = 3 * nu;
-        let mut buf = WideBuffers::default();
         // Garbage in the buffers must not matter (only the upper triangle is read).
-        buf.r = vec![f64::NAN; n * n];
+        let mut buf = WideBuffers {
+            r: vec![f64::NAN; n * n],
+            ..WideBuffers::default()
+        };
         wide_triangle(&qr, ny..ny + 9, &mut buf);
         let t = buf.triangle(n);
         let r = DMatrix::from_fn(n, n, |i, j| if i <= j { t.column(j)[i] } else { 0.0 });
