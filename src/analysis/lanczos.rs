@@ -155,7 +155,8 @@ avx2_dispatch! {
 }
 
 avx2_dispatch! {
-    fn sigma_min = sigma_min_avx2 / Lanczos::sigma_min_inline;(lz: &mut Lanczos, r: Triangle) -> f64
+    fn sigma_min = sigma_min_avx2 / Lanczos::sigma_min_inline;
+        (lz: &mut Lanczos, r: Triangle) -> f64
 }
 
 /// The operators whose largest eigenvalue gives σ_max² and 1/σ_min² (a plain enum, not a
@@ -628,6 +629,22 @@ mod tests {
                 "n = {n}: σ_min {got_min} vs {min}"
             );
         }
+    }
+
+    /// The dispatched runs (AVX2 where the CPU has it) give bitwise what their portable
+    /// bodies give.
+    #[test]
+    fn the_dispatched_runs_equal_their_portable_bodies_bitwise() {
+        let r = graded(36).upper_triangle();
+        let (mut fast, mut plain) = (Lanczos::new(36), Lanczos::new(36));
+        let max = (
+            fast.sigma_max(tri(&r), Start::Random),
+            plain.sigma_max_inline(tri(&r), Start::Random),
+        );
+        assert_eq!(max.0.to_bits(), max.1.to_bits(), "σ_max");
+        assert_eq!(fast.ritz(), plain.ritz(), "Ritz vector");
+        let min = (fast.sigma_min(tri(&r)), plain.sigma_min_inline(tri(&r)));
+        assert_eq!(min.0.to_bits(), min.1.to_bits(), "σ_min");
     }
 
     #[test]

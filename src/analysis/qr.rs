@@ -495,6 +495,47 @@ mod tests {
         }
     }
 
+    /// The dispatched kernels (AVX2 where the CPU has it) give bitwise what their
+    /// portable bodies give.
+    #[test]
+    fn the_dispatched_kernels_equal_their_portable_bodies_bitwise() {
+        let nu = 10;
+        let b_u = structured(nu);
+        let n = b_u.nrows();
+        let (ny, nc) = (3 * nu, 9);
+        let c = DMatrix::from_fn(n, nc, |i, j| noise(i, j, 7));
+        let bits = |m: &DMatrix<f64>| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (mut fast, mut plain) = (
+            LegQr::new(&[&b_u, &c], nu, None),
+            LegQr::new_inline(&[&b_u, &c], nu, None),
+        );
+        assert_eq!(bits(&fast.w), bits(&plain.w), "LegQr::new");
+        let (mut wide_fast, mut wide_plain) = (WideBuffers::default(), WideBuffers::default());
+        wide_triangle(&fast, ny..ny + nc, &mut wide_fast);
+        wide_triangle_inline(&plain, ny..ny + nc, &mut wide_plain);
+        let upper = |b: &WideBuffers| {
+            let t = b.triangle(n);
+            (0..n)
+                .flat_map(|j| {
+                    t.column(j)[..=j]
+                        .iter()
+                        .map(|x| x.to_bits())
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(upper(&wide_fast), upper(&wide_plain), "wide_triangle");
+        fast.finish(ny..n, n..ny + nc);
+        plain.finish_inline(ny..n, n..ny + nc);
+        assert_eq!(bits(&fast.w), bits(&plain.w), "finish");
+        let ok = (
+            back_substitute_rows(&mut fast, n, n..ny + nc, 0),
+            back_substitute_rows_inline(&mut plain, n, n..ny + nc, 0),
+        );
+        assert!(ok.0 && ok.1);
+        assert_eq!(bits(&fast.w), bits(&plain.w), "back_substitute_rows");
+    }
+
     #[test]
     fn the_wide_triangle_reproduces_m_m_transpose() {
         // The 9-DoF shape: n_u = 10, n_q = 9 columns of C.
