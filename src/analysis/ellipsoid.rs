@@ -7,7 +7,7 @@
 //! twice for orthogonality) and L is decomposed by one-sided Jacobi; A Aᵀ is never
 //! formed, so a thin ellipsoid keeps its small semi-axis to working precision.
 
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{Dim, Matrix, Matrix3, RawStorage, Vector3};
 use serde::Serialize;
 
 /// One ellipsoid: semi-axes in decreasing order and their unit directions (world frame).
@@ -22,12 +22,12 @@ pub struct Ellipsoid {
 }
 
 impl Ellipsoid {
-    /// The ellipsoid of the 3 × k matrix `a` (k ≥ 1).
+    /// The ellipsoid of the 3 × k matrix `a` (k ≥ 1; a `DMatrix` or a view of one).
     ///
     /// # Panics
     /// If `a` does not have 3 rows (a programmer error).
     #[track_caller]
-    pub fn of(a: &DMatrix<f64>) -> Self {
+    pub fn of<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(a: &Matrix<f64, R, C, S>) -> Self {
         assert_eq!(a.nrows(), 3, "Ellipsoid::of: expected 3 rows");
         Self::of_lower(&row_compression(a))
     }
@@ -119,17 +119,25 @@ pub(crate) fn ratio(min: f64, max: f64) -> f64 {
 
 /// L with a = L Qᵀ, L lower-triangular 3 × 3 and Q with orthonormal columns (modified
 /// Gram–Schmidt on the rows, repeated once).
-fn row_compression(a: &DMatrix<f64>) -> Matrix3<f64> {
+fn row_compression<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+    a: &Matrix<f64, R, C, S>,
+) -> Matrix3<f64> {
     let k = a.ncols();
-    let mut q = [vec![0.0; k], vec![0.0; k], vec![0.0; k]];
+    // Q's three rows, then the current row (one buffer: these ran as six allocations
+    // per call, four calls per analysis).
+    let mut buf = vec![0.0; 4 * k];
+    let (q, r) = buf.split_at_mut(3 * k);
     let mut l = Matrix3::zeros();
     for i in 0..3 {
-        let mut r: Vec<f64> = a.row(i).iter().copied().collect();
+        for (x, c) in r.iter_mut().zip(0..k) {
+            *x = a[(i, c)];
+        }
         for _pass in 0..2 {
             for j in 0..i {
-                let c: f64 = r.iter().zip(&q[j]).map(|(x, y)| x * y).sum();
+                let qj = &q[j * k..(j + 1) * k];
+                let c: f64 = r.iter().zip(qj).map(|(x, y)| x * y).sum();
                 l[(i, j)] += c;
-                for (x, y) in r.iter_mut().zip(&q[j]) {
+                for (x, y) in r.iter_mut().zip(qj) {
                     *x -= c * y;
                 }
             }
@@ -137,7 +145,7 @@ fn row_compression(a: &DMatrix<f64>) -> Matrix3<f64> {
         let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
         l[(i, i)] = norm;
         if norm > 0.0 {
-            for (x, y) in q[i].iter_mut().zip(&r) {
+            for (x, y) in q[i * k..(i + 1) * k].iter_mut().zip(r.iter()) {
                 *x = y / norm;
             }
         }
@@ -148,6 +156,7 @@ fn row_compression(a: &DMatrix<f64>) -> Matrix3<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DMatrix;
 
     #[test]
     fn semi_axes_and_directions_of_a_known_matrix() {

@@ -214,7 +214,7 @@ impl Work {
             let q = &current[..n];
             op.apply(q, &mut self.w[..n], &mut self.tmp[..n]);
             let w = &mut self.w[..n];
-            if !w.iter().all(|x| x.is_finite()) {
+            if !all_finite(w) {
                 return f64::INFINITY;
             }
             let a = dot(q, w);
@@ -393,6 +393,22 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
     let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// Whether every entry is finite: Σ 0·x is ±0 for finite entries and NaN once one is
+/// NaN or infinite (four partial sums, no branch per entry: a quarter of the
+/// instructions of `iter().all(is_finite)`).
+#[inline(always)]
+pub(crate) fn all_finite(x: &[f64]) -> bool {
+    let mut acc = [0.0; 4];
+    let chunks = x.chunks_exact(4);
+    let tail = chunks.remainder().iter().fold(0.0, |s, v| s + v * 0.0);
+    for c in chunks {
+        for i in 0..4 {
+            acc[i] += c[i] * 0.0;
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail == 0.0
 }
 
 #[inline(always)]
