@@ -81,6 +81,11 @@ impl Lanczos {
         }
     }
 
+    /// The largest order this work space takes.
+    pub fn capacity(&self) -> usize {
+        self.work.w.len()
+    }
+
     /// Lanczos steps of the last call.
     #[cfg(test)]
     pub fn steps(&self) -> usize {
