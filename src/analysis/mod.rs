@@ -353,10 +353,7 @@ impl Factors {
         let (cols_u, cols) = cols.split_at(ny);
         let (cols_x, cols_q) = cols.split_at(6);
         let cols = [cols_u, cols_x, cols_q];
-        let scales = Scales {
-            rows,
-            cols: &cols,
-        };
+        let scales = Scales { rows, cols: &cols };
         let scaled_rconds = Triangles::new(blocks, nu, Some(scales), work).rconds;
         work.scales = buf;
         Self {
@@ -665,7 +662,11 @@ fn largest_row<'a>(r: qr::Triangle, buf: &'a mut [f64]) -> Start<'a> {
     let inv = 1.0 / max.sqrt();
     let out = &mut buf[..n];
     for (j, x) in out.iter_mut().enumerate() {
-        *x = if j >= best { r.column(j)[best] * inv } else { 0.0 };
+        *x = if j >= best {
+            r.column(j)[best] * inv
+        } else {
+            0.0
+        };
     }
     Start::Given(out)
 }
