@@ -26,7 +26,7 @@
 //!
 //! [`back_substitute_rows`] takes four rows per block (the diagonal block by
 //! substitution, then one pass over the rows above with four columns of R, as the
-//! Lanczos kernels do): 9-DoF analysis 669 k → 655 k instructions, 6-DoF 609 k → 598 k;
+//! Lanczos kernels do): 9-DoF analysis 669 k → 655 k instructions, 6-DoF 555 k → 544 k;
 //! criterion 47.0 → 46.0 µs (9-DoF, interleaved), 6-DoF unchanged within noise; J_FK
 //! and C move by round-off (≤ 3e-16 of their largest entry, Λ ≤ 5e-14).
 
