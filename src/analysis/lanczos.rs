@@ -21,12 +21,14 @@
 //! apart from the AVX2 copy), and a tighter start for the Newton iteration of
 //! [`top_ritz`] (6.1 → 3.8 steps per call).
 //!
-//! Issue 19's second round: σ_max(R_u) starts from R_u's largest row instead of the
-//! fixed random vector (`largest_row` in the parent module): 5 → 4 steps raw, 7 → 5
-//! scaled at the 9-DoF bench configuration, 681 k → 669 k instructions per analysis,
-//! 47.1 → 46.0 µs. Tried and dropped: the LINPACK start's forward pass by blocks of
-//! four columns (as in `solve_upper_transpose`): 655 k → 651 k instructions, but no
-//! gain in time (45.8/45.8 against 46.7/48.3 µs, interleaved).
+//! Issue 19's second round, tried and dropped: σ_max(R_u) started from R_u's largest row
+//! instead of the fixed random vector (5 → 4 steps raw, 7 → 5 scaled at the 9-DoF bench
+//! configuration, 47.1 → 46.0 µs), but at 1 801 of the 178 353 points of the reference
+//! design's Δ = 3 mm sweep the run stopped at a Ritz value below σ_max (the residual test
+//! finds an eigenvalue, not the largest one): rcond 0.64 % off, scaled rconds up to 16 %;
+//! the LINPACK start's forward pass by blocks of four columns (as in
+//! `solve_upper_transpose`): 655 k → 651 k instructions, but no gain in time (45.8/45.8
+//! against 46.7/48.3 µs, interleaved).
 
 use super::qr::Triangle;
 
