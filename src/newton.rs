@@ -68,6 +68,22 @@ pub trait NonlinearSystem {
         out.copy_from(x);
         *out += step;
     }
+
+    /// For a system with kinks: whether the Newton step `step` from `x` leaves the kink
+    /// of unknown `j` (at `x`) for the side whose slope the Jacobian at `x` does not hold;
+    /// if so, the raw column ∂F/∂x_j of that side is written into `column` (n values) and
+    /// [`solve`] solves the step again with it (the element of the generalized Jacobian
+    /// that agrees with the step, as in semismooth Newton). Default: never.
+    fn one_sided_column(
+        &self,
+        x: &DVector<f64>,
+        step: &DVector<f64>,
+        j: usize,
+        column: &mut DVector<f64>,
+    ) -> bool {
+        let _ = (x, step, j, column);
+        false
+    }
 }
 
 /// A run whose trust region collapses is converged when ‖F‖₂ ≤ `FLOOR_FACTOR` × its
@@ -587,7 +603,8 @@ pub fn solve<S: NonlinearSystem>(
             sc.reusable = end.is_ok();
             return end;
         }
-        if !sc.factored {
+        let fresh = !sc.factored;
+        if fresh {
             // A fresh Jacobian: weight its rows, update the column scaling, factor it.
             weight_rows(&mut sc.jac, &sc.weights);
             for j in 0..n {
@@ -606,16 +623,15 @@ pub fn solve<S: NonlinearSystem>(
             let dx = scaled_norm(x, &sc.diag);
             radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
         }
+        let mut newton_ok = newton_step(sc);
+        if fresh && newton_ok && one_sided_columns(system, x, sc) {
+            sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+            newton_ok = newton_step(sc);
+        }
         for i in 0..n {
             sc.work[i] = sc.r[i] * sc.weights[i];
         }
         sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
-        let newton_ok = sc.newton_ok && {
-            sc.newton_step.copy_from(&sc.work);
-            sc.newton_step.neg_mut();
-            sc.lu.solve_in_place(&mut sc.newton_step);
-            sc.newton_step.as_slice().iter().all(|v| v.is_finite())
-        };
         let newton_len = if newton_ok {
             scaled_norm(&sc.newton_step, &sc.diag)
         } else {
@@ -788,6 +804,40 @@ pub fn solve<S: NonlinearSystem>(
         }
         // Otherwise a chord step: the factorized Jacobian is kept.
     }
+}
+
+/// The Newton step −(W J)⁻¹ W r of the factored Jacobian into `sc.newton_step`; whether
+/// there is one (the factorization succeeded and the step is finite).
+fn newton_step(sc: &mut NewtonScratch) -> bool {
+    if !sc.newton_ok {
+        return false;
+    }
+    for i in 0..sc.r.len() {
+        sc.newton_step[i] = -(sc.r[i] * sc.weights[i]);
+    }
+    sc.lu.solve_in_place(&mut sc.newton_step);
+    sc.newton_step.as_slice().iter().all(|v| v.is_finite())
+}
+
+/// Replaces (row-weighted) each column of `sc.jac` whose unknown the Newton step in
+/// `sc.newton_step` takes across a kink by the system's one-sided column
+/// ([`NonlinearSystem::one_sided_column`]); whether any was replaced (the caller then
+/// factors and solves again).
+fn one_sided_columns<S: NonlinearSystem>(
+    system: &S,
+    x: &DVector<f64>,
+    sc: &mut NewtonScratch,
+) -> bool {
+    let mut replaced = false;
+    for j in 0..x.len() {
+        if system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
+            for (i, w) in sc.weights.iter().enumerate() {
+                sc.jac[(i, j)] = w * sc.rows[i];
+            }
+            replaced = true;
+        }
+    }
+    replaced
 }
 
 /// Multiplies each row i of `jac` by `w[i]`.

@@ -361,6 +361,47 @@ fn trajectory_reports_steps_and_stats_and_jacobian_check_compares_blocks() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--two-sided-kinks` sweeps as before the one-sided kink columns: the same cells here,
+/// with more Newton Jacobians (measured: 619 against 189).
+#[test]
+fn workspace_two_sided_kinks_gives_the_same_cells_for_more_jacobians() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-kinks-{}", std::process::id()));
+    let sweep = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut a = vec![
+            "workspace".to_string(),
+            design(),
+            "--z-range=-0.003,0".into(),
+            "--angle-step".into(),
+            "0.4".into(),
+            "--out".into(),
+            out.to_str().unwrap().into(),
+        ];
+        a.extend(extra.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = a.iter().map(String::as_str).collect();
+        let o = tdpcr(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        let cells: Vec<String> = std::fs::read_to_string(out.join("points.csv"))
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').take(3).collect::<Vec<_>>().join(","))
+            .collect();
+        (v["jacobian_evaluations"].as_u64().unwrap(), cells)
+    };
+    let (one_sided, cells) = sweep("one", &[]);
+    let (two_sided, cells_before) = sweep("two", &["--two-sided-kinks"]);
+    assert!(cells.len() > 500, "{}", cells.len());
+    assert_eq!(cells, cells_before);
+    assert!(
+        2 * one_sided < two_sided,
+        "Jacobians: {one_sided} one-sided, {two_sided} two-sided"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn workspace_writes_points_summary_and_figures() {
     let dir = std::env::temp_dir().join(format!("tdpcr-cli-ws-{}", std::process::id()));

@@ -117,6 +117,14 @@ pub struct Solver {
     /// then repeats exactly, where fresh steps creep by ≈ 4e-8 m per cycle. The
     /// within-limits IK always starts with a fresh Jacobian.
     pub reuse_least_norm_factorization: bool,
+    /// Whether a Newton step of FK or square IK that sends a taut tendon at its kink
+    /// (ζ = 0) into slack is solved again with that tendon's slack-side column (the
+    /// one-sided slope the step takes; no integration). Without it such a step follows
+    /// the taut slope beyond the kink, overshoots, and the trust region collapses
+    /// before the pair crawls across (BENCHMARKS.md "Heavy solves").
+    pub one_sided_kinks: bool,
+    /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
+    one_sided_columns_used: usize,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
     /// (the predictor of warm starts from it), with the solutions before it on its path.
     last: Option<LastSolve>,
@@ -155,6 +163,8 @@ impl Solver {
             redundancy: Redundancy::LeastNorm,
             reuse_jacobian: true,
             reuse_least_norm_factorization: false,
+            one_sided_kinks: false,
+            one_sided_columns_used: 0,
             last: None,
             newton_system: None,
             seeded: false,
@@ -322,6 +332,13 @@ impl Solver {
             guess,
         );
         finish(result, start, extra, &self.model, None)
+    }
+
+    /// How many one-sided kink columns ([`Solver::one_sided_kinks`]) the Newton steps of
+    /// the last FK or square IK (converged or not) took: 0 means the run was the same as
+    /// without them.
+    pub fn one_sided_columns_used(&self) -> usize {
+        self.one_sided_columns_used
     }
 
     /// Keeps the last solution for the next warm solve's tangent prediction, but none

@@ -8,6 +8,8 @@
 //! - IK (6-DoF design): given the pose and the wrench, unknowns \[q (6), y_u\];
 //!   Jacobian \[B_q B_u\].
 
+use std::cell::Cell;
+
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
 use super::predictor::{
@@ -98,6 +100,8 @@ pub(super) fn run_with(
         method: solver.jacobian,
         problem,
         wrench,
+        one_sided_kinks: solver.one_sided_kinks,
+        one_sided_columns_used: Cell::new(0),
     };
     // From the prediction if there is one; from the guess itself if that fails.
     let report = match predicted {
@@ -109,7 +113,9 @@ pub(super) fn run_with(
             Err(_) => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
         },
         None => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
-    }?;
+    };
+    solver.one_sided_columns_used = system.one_sided_columns_used.get();
+    let report = report?;
     if scaled.is_none() {
         solver.newton_system = Some(forward);
     }
@@ -204,6 +210,10 @@ struct ShootingSystem<'a> {
     method: JacobianMethod,
     problem: Problem<'a>,
     wrench: &'a Wrench,
+    /// [`Solver::one_sided_kinks`].
+    one_sided_kinks: bool,
+    /// The one-sided columns handed to Newton so far.
+    one_sided_columns_used: Cell<usize>,
 }
 
 impl ShootingSystem<'_> {
@@ -313,6 +323,37 @@ impl NonlinearSystem for ShootingSystem<'_> {
     fn retract(&self, x: &DVector<f64>, step: &DVector<f64>, out: &mut DVector<f64>) {
         retract(self.problem, x, step, out);
     }
+
+    fn one_sided_column(
+        &self,
+        x: &DVector<f64>,
+        step: &DVector<f64>,
+        j: usize,
+        column: &mut DVector<f64>,
+    ) -> bool {
+        // A taut tendon at its kink (ζ ≥ 0, crossing within the first
+        // STEP_LIMIT_MIN_FRACTION of the step, which `step_limit` lets through) that the
+        // step sends into slack: the slack side's column, dΘ/dζ = −1 in its length row
+        // (the tension, and with it every other row, no longer depends on ζ).
+        let (head, nu, nt) = (
+            self.head(),
+            self.model.n_leg_unknowns(),
+            self.model.n_tendons(),
+        );
+        if !self.one_sided_kinks || j < head || (j - head) % nu >= nt {
+            return false;
+        }
+        let (z, dz) = (x[j], step[j]);
+        if !(z >= 0.0 && z + dz < 0.0 && -z / dz < STEP_LIMIT_MIN_FRACTION) {
+            return false;
+        }
+        let (leg, k) = ((j - head) / nu, (j - head) % nu);
+        column.fill(0.0);
+        column[6 + leg * nu + 6 + k] = -1.0;
+        self.one_sided_columns_used
+            .set(self.one_sided_columns_used.get() + 1);
+        true
+    }
 }
 
 /// x ⊕ step in the unknowns of `problem`: FK rotations compose, R ← exp(δθ^) R.
@@ -331,5 +372,90 @@ pub(super) fn retract(
         for c in 0..3 {
             out[3 + c] = phi[c];
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::Tdpcr;
+
+    /// The solved FK of the reference design at q = 0 in the solver's unknowns, with every
+    /// leg's first tendon moved to its kink.
+    fn system_at_kink() -> (Model, DVector<f64>) {
+        let path = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
+        let design = Tdpcr::from_ron_file(path).unwrap();
+        let model = Model::new(&design);
+        let q = vec![0.0; model.n_actuators()];
+        let mut solver = Solver::new(&design).unwrap();
+        let s = solver.solve_fk(&q, &Wrench::default(), None).unwrap().state;
+        let mut y = s.y_u.clone();
+        convert_tendon_unknowns(&model, &mut y, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
+        let x: Vec<f64> = s
+            .position
+            .iter()
+            .chain(&s.rotvec)
+            .chain(&y)
+            .copied()
+            .collect();
+        let mut x = DVector::from_vec(x);
+        for leg in 0..3 {
+            x[6 + leg * model.n_leg_unknowns()] = 0.0;
+        }
+        (model, x)
+    }
+
+    #[test]
+    fn the_one_sided_column_is_the_slack_sides_derivative() {
+        let (model, x) = system_at_kink();
+        let q = vec![0.0; model.n_actuators()];
+        let wrench = Wrench::default();
+        let mut boundary = BoundaryScratch::new(&model);
+        let mut blocks = BoundaryJacobians::new(&model);
+        let mut system = ShootingSystem {
+            model: &model,
+            boundary: &mut boundary,
+            blocks: &mut blocks,
+            method: JacobianMethod::Exact,
+            problem: Problem::Forward { q: &q },
+            wrench: &wrench,
+            one_sided_kinks: true,
+            one_sided_columns_used: Cell::new(0),
+        };
+        let n = x.len();
+        let nu = model.n_leg_unknowns();
+        let mut step = DVector::from_element(n, 1e-3);
+        let (mut column, mut r0, mut r1) =
+            (DVector::zeros(n), DVector::zeros(n), DVector::zeros(n));
+        system.residual(&x, &mut r0).unwrap();
+        for leg in 0..3 {
+            let j = 6 + leg * nu;
+            // Into slack: the slack side's slope, checked by a one-sided difference.
+            step[j] = -1e-3;
+            assert!(system.one_sided_column(&x, &step, j, &mut column));
+            let h = 1e-6;
+            let mut xh = x.clone();
+            xh[j] = -h;
+            system.residual(&xh, &mut r1).unwrap();
+            let fd = (&r1 - &r0) / -h;
+            assert!(
+                (&fd - &column).amax() < 1e-8,
+                "leg {leg}: {:e}",
+                (&fd - &column).amax()
+            );
+            // Staying taut, or a taut tendon well before its kink: the Jacobian's own.
+            step[j] = 1e-3;
+            assert!(!system.one_sided_column(&x, &step, j, &mut column));
+            let mut far = x.clone();
+            far[j] = 1e-3;
+            step[j] = -2e-3;
+            assert!(!system.one_sided_column(&far, &step, j, &mut column));
+            // Not a tendon unknown.
+            assert!(!system.one_sided_column(&x, &step, j + model.n_tendons(), &mut column));
+        }
+        system.one_sided_kinks = false;
+        step[6] = -1e-3;
+        assert!(!system.one_sided_column(&x, &step, 6, &mut column));
+        assert_eq!(system.one_sided_columns_used.get(), 3);
     }
 }

@@ -46,6 +46,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
             CollisionPolicy::Stop
         },
         redundancy,
+        one_sided_kinks: !args.two_sided_kinks,
         ..defaults
     };
     settings.validate()?;
