@@ -364,8 +364,9 @@ impl Robot {
     /// collision (m,) bool, rcond and rcond_scaled ({name: (m,)}), singularity
     /// ({type_i, type_ii, leg: (m,) bool}), min_tension (m,) [N], stable (m,) bool,
     /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
-    /// (dicts, as the CLI's workspace JSON).
-    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None))]
+    /// (dicts, as the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the
+    /// Jacobian's taut slopes only (the CLI's `--two-sided-kinks`).
+    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true))]
     #[allow(clippy::too_many_arguments)]
     fn workspace<'py>(
         &self,
@@ -378,6 +379,7 @@ impl Robot {
         tolerance: Option<f64>,
         max_iterations: Option<usize>,
         progress: Option<Py<PyAny>>,
+        one_sided_kinks: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = WorkspaceSettings::default();
         let three = |v: Option<&Bound<'py, PyAny>>, name, default: [f64; 3]| match v {
@@ -405,6 +407,7 @@ impl Robot {
             collisions,
             tolerance: tolerance.unwrap_or(d.tolerance),
             max_iterations: max_iterations.unwrap_or(d.max_iterations),
+            one_sided_kinks,
             ..d
         };
         crate::workspace::sweep(py, &self.design, &settings, progress)

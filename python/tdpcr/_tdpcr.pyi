@@ -250,6 +250,7 @@ class Robot:
         tolerance: Optional[float] = None,
         max_iterations: Optional[int] = None,
         progress: Optional[Callable[[int, int], Any]] = None,
+        one_sided_kinks: bool = True,
     ) -> dict[str, Any]:
         """The workspace at the fixed orientation ``rotvec`` [rad] (the library's sweep:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
@@ -263,7 +264,10 @@ class Robot:
         (m,)}), ``singularity`` ({"type_i", "type_ii", "leg": (m,) bool}),
         ``min_tension`` (m,) [N], ``stable`` (m,) bool, ``min_compliance_eigenvalue``
         (m,), ``leg_switch`` (m,) bool; ``summary``, ``settings`` (dicts, as the CLI's
-        workspace JSON). Raises ValueError (bad settings), ConvergenceError.
+        workspace JSON). ``one_sided_kinks=False`` solves every step with the
+        Jacobian's taut slopes only (the CLI's ``--two-sided-kinks``: the maps of
+        before, with more Newton Jacobians). Raises ValueError (bad settings),
+        ConvergenceError.
         """
 
 class Tdcr:

@@ -77,6 +77,18 @@ def test_workspace_columns_and_progress(robot):
     assert calls and calls[-1][0] == calls[-1][1] and len(calls) <= 50
 
 
+def test_workspace_two_sided_kinks_same_cells_more_jacobians(robot):
+    kw = dict(step=0.003, angle_step=0.4, z_range=[-0.003, 0.0])
+    one = robot.workspace(**kw)
+    two = robot.workspace(one_sided_kinks=False, **kw)
+    assert one["settings"]["one_sided_kinks"] is True
+    assert two["settings"]["one_sided_kinks"] is False
+    np.testing.assert_array_equal(one["cell"], two["cell"])
+    assert one["cell"].shape[0] > 500
+    j1, j2 = (w["summary"]["jacobian_evaluations"] for w in (one, two))
+    assert 2 * j1 < j2, (j1, j2)
+
+
 def test_workspace_errors(robot):
     with pytest.raises(ValueError, match="step"):
         robot.workspace(step=-1.0)
