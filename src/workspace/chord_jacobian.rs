@@ -58,6 +58,32 @@ impl JacobianHistory {
     /// blocks (its analysis at `state`), dropping the oldest; where the solver has none
     /// (the redundant design, a tendon at γ = 0) the history is cleared.
     pub(super) fn push(&mut self, model: &Model, solver: &Solver, state: &RobotState) {
+        self.push_with(model, state, |jac| {
+            solver.ik_jacobian_from_blocks(state, jac)
+        });
+    }
+
+    /// Adds `jacobian`, the IK Jacobian at the path's newest solution `state`, dropping
+    /// the oldest.
+    pub(super) fn push_jacobian(
+        &mut self,
+        model: &Model,
+        state: &RobotState,
+        jacobian: &DMatrix<f64>,
+    ) {
+        self.push_with(model, state, |jac| {
+            jac.copy_from(jacobian);
+            true
+        });
+    }
+
+    /// Adds the Jacobian `fill` writes (false: none, the history is cleared).
+    fn push_with(
+        &mut self,
+        model: &Model,
+        state: &RobotState,
+        fill: impl FnOnce(&mut DMatrix<f64>) -> bool,
+    ) {
         let slot = if self.len < PREDICTOR_POINTS {
             self.len += 1;
             (self.first + self.len - 1) % PREDICTOR_POINTS
@@ -66,7 +92,7 @@ impl JacobianHistory {
             self.first = (self.first + 1) % PREDICTOR_POINTS;
             oldest
         };
-        if !solver.ik_jacobian_from_blocks(state, &mut self.jacobians[slot]) {
+        if !fill(&mut self.jacobians[slot]) {
             self.clear();
             return;
         }

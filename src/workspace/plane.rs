@@ -78,7 +78,7 @@ pub(super) fn reach_planes(
             let position = Vector3::new(0.0, 0.0, k as f64 * settings.step);
             let from = path.len().saturating_sub(PREDICTOR_POINTS);
             let history: Vec<&RobotState> = path[from..].iter().collect();
-            match w.step(model, &rotation, position, &history, work) {
+            match w.step(model, &rotation, position, &history, None, work) {
                 Ok(s) => {
                     if let Some(end) = s.end(settings.collisions) {
                         return (out, end.into(), None);
@@ -143,12 +143,13 @@ impl PlaneJob<'_> {
     /// their measures (in parallel).
     pub(super) fn sweep(&self, k: i64, origin: &Sample, n_rays: usize) -> PlaneSweep {
         let (model, settings) = (self.model, self.settings);
+        let start = self.worker.clone().ray_start(model, &origin.state);
         let rays: Vec<Ray> = (0..n_rays)
             .into_par_iter()
             .map_init(
                 || self.worker.clone(),
                 |w, j| {
-                    let ray = w.follow_ray(model, settings, origin, j, self.work);
+                    let ray = w.follow_ray(model, settings, origin, start.as_ref(), j, self.work);
                     (self.on_ray_done)();
                     ray
                 },

@@ -7,15 +7,16 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use crate::boundary::convert_tendon_unknowns;
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
 use crate::rod::Wrench;
-use crate::rod::tendon::tension;
+use crate::rod::tendon::{TendonUnknown, tension};
 
 use super::chord_jacobian::JacobianHistory;
 use super::collision::{CollisionChecker, first_collision_of};
@@ -158,15 +159,16 @@ impl Worker {
         })
     }
 
-    /// One path step to `position`: IK from a prediction extrapolated from the last
-    /// solutions on the path (`history`, oldest first, at equal steps), with the
-    /// [`PROBE_ITERATIONS`] progress check.
+    /// One path step to `position`: IK from `start` if given, else from a prediction
+    /// extrapolated from the last solutions on the path (`history`, oldest first, at
+    /// equal steps), with the [`PROBE_ITERATIONS`] progress check.
     pub(super) fn step(
         &mut self,
         model: &Model,
         rotation: &Matrix3<f64>,
         position: Vector3<f64>,
         history: &[&RobotState],
+        start: Option<&RobotState>,
         work: &Work,
     ) -> Result<Sample, End> {
         let pose = Pose {
@@ -174,8 +176,11 @@ impl Worker {
             rotation: *rotation,
         };
         let last = history[history.len() - 1];
-        let predicted = predict(model, history);
-        let guess = predicted.as_ref().unwrap_or(last);
+        let predicted = match start {
+            Some(_) => None,
+            None => predict(model, history),
+        };
+        let guess = start.or(predicted.as_ref()).unwrap_or(last);
         // The full budget only if the first iterations made progress.
         let newton = NewtonSettings {
             progress_check: (history.len() > 1).then_some(ProgressCheck {
@@ -193,8 +198,9 @@ impl Worker {
     /// The IK of a path step from `guess` (the prediction from `history`), first with
     /// one-sided kink columns ([`Solver::one_sided_kinks`]), then, where that run took
     /// such a column and either its trust region collapsed or it landed farther from the
-    /// prediction than [`BRANCH_JUMP`] × the last step's change of q, again without them:
-    /// the solution nearer to the prediction is kept (each run's work is counted).
+    /// prediction than [`BRANCH_JUMP`] × the last step's change of q (a ray's first step:
+    /// × the predicted change), again without them: the solution nearer to the
+    /// prediction is kept (each run's work is counted).
     /// Measured on the ψ = 0 twin's full Δ = 3 mm sweep: of 1 972 one-sided runs whose
     /// trust region collapsed, the two-sided run converged at 1 144; of the 2 695 that
     /// failed otherwise (too little progress, the iteration limit), at 287 only, and
@@ -214,7 +220,9 @@ impl Worker {
         let suspect = match &first {
             Ok(s) => match history {
                 [.., before, last] => jump(s) > BRANCH_JUMP * max_difference(&last.q, &before.q),
-                _ => false,
+                // A ray's first step from its plane's start: the predicted change.
+                [last] => jump(s) > BRANCH_JUMP * max_difference(&guess.q, &last.q),
+                [] => false,
             },
             Err(Error::Solve(SolveError::NotConverged { reason, .. })) => {
                 *reason == StopReason::TrustRegionCollapsed
@@ -273,6 +281,7 @@ impl Worker {
                 rotation,
                 start + (position - start) * t,
                 &history,
+                None,
                 work,
             )?;
             if m == SUBSTEPS {
@@ -288,12 +297,35 @@ impl Worker {
         unreachable!("the loop returns at its last substep")
     }
 
-    /// Ray j from the plane origin `origin`.
+    /// The [`RayStart`] of the plane whose origin is `origin` (`None` where the IK
+    /// Jacobian there is not available or singular: the rays then start as without).
+    pub(super) fn ray_start(&mut self, model: &Model, origin: &RobotState) -> Option<RayStart> {
+        let (_, blocks) = self.solver.blocks_at(origin, &Wrench::default()).ok()?;
+        let b_x = blocks.b_x.clone();
+        let n = model.n_residuals();
+        let mut jacobian = DMatrix::zeros(n, n);
+        if !self.solver.ik_jacobian_from_blocks(origin, &mut jacobian) {
+            return None;
+        }
+        let lu = jacobian.clone().lu();
+        let tangent = |axis: usize| {
+            let t = lu.solve(&(-b_x.column(axis)))?;
+            t.iter().all(|v| v.is_finite()).then_some(t)
+        };
+        Some(RayStart {
+            tangents: [tangent(0)?, tangent(1)?],
+            jacobian,
+        })
+    }
+
+    /// Ray j from the plane origin `origin`, its first step started from the plane's
+    /// `start` if there is one.
     pub(super) fn follow_ray(
         &mut self,
         model: &Model,
         settings: &WorkspaceSettings,
         origin: &Sample,
+        start: Option<&RayStart>,
         j: usize,
         work: &Work,
     ) -> Ray {
@@ -303,10 +335,17 @@ impl Worker {
         let rotation = settings.rotation();
         let max_steps = (max_radius(model) / settings.step).ceil() as usize;
         // Within the ray each step may start from the Jacobian of the step before; the
-        // first evaluates its own, so the ray does not depend on what this worker solved
-        // before (the map is the same for any thread count and schedule).
+        // first from the origin's (the same for every ray of the plane), so the ray does
+        // not depend on what this worker solved before (the map is the same for any
+        // thread count and schedule).
         self.solver.forget_jacobian();
         self.jacobians.clear();
+        let first = start.map(|st| {
+            self.jacobians
+                .push_jacobian(model, &origin.state, &st.jacobian);
+            self.jacobians.seed(&mut self.solver);
+            st.guess(model, &origin.state, settings.step * c, settings.step * s)
+        });
         let mut samples: Vec<Sample> = Vec::new();
         for i in 1..=max_steps {
             let r = i as f64 * settings.step;
@@ -316,7 +355,8 @@ impl Worker {
                 .chain(samples.iter().map(|s| &s.state))
                 .skip((n + 1).saturating_sub(PREDICTOR_POINTS))
                 .collect();
-            let result = match self.step(model, &rotation, position, &history, work) {
+            let start = if i == 1 { first.as_ref() } else { None };
+            let result = match self.step(model, &rotation, position, &history, start, work) {
                 Err(End::NotConverged) => {
                     let last = samples.last().unwrap_or(origin);
                     self.step_in_substeps(model, &rotation, &last.state, position, work)
@@ -372,6 +412,51 @@ impl Worker {
 const PROBE_ITERATIONS: usize = 15;
 /// See [`PROBE_ITERATIONS`].
 const PROBE_PROGRESS: f64 = 10.0;
+
+/// The start of every ray of a plane: the exact IK Jacobian at the plane's origin (in the
+/// solver's unknowns) and the tangents of the solution there along x and y, from which
+/// each ray's first step starts (a first-order prediction with that Jacobian instead of
+/// the origin itself and a Jacobian of its own). Computed once per plane from the origin
+/// alone, so every ray still depends only on its plane.
+pub(super) struct RayStart {
+    /// J = ∂b/∂[q, ζ] at the origin.
+    jacobian: DMatrix<f64>,
+    /// ∂[q, ζ]/∂x and ∂[q, ζ]/∂y at the origin: J t = −∂b/∂x.
+    tangents: [DVector<f64>; 2],
+}
+
+impl RayStart {
+    /// The first-order prediction of the solution at `origin` moved by (dx, dy) \[m\]:
+    /// as [`predict`], a tendon predicted across its kink starts at the kink (ζ = 0).
+    fn guess(&self, model: &Model, origin: &RobotState, dx: f64, dy: f64) -> RobotState {
+        let nq = model.n_actuators();
+        let [tx, ty] = &self.tangents;
+        let step = |i: usize| dx * tx[i] + dy * ty[i];
+        let mut y_u = origin.y_u.clone();
+        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Gamma, TendonUnknown::Linear);
+        let last = y_u.clone();
+        for (i, y) in y_u.iter_mut().enumerate() {
+            *y += step(nq + i);
+        }
+        for i in model.tendon_unknown_indices() {
+            if y_u[i] * last[i] < 0.0 {
+                y_u[i] = 0.0;
+            }
+        }
+        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
+        RobotState {
+            position: origin.position,
+            rotvec: origin.rotvec,
+            q: origin
+                .q
+                .iter()
+                .enumerate()
+                .map(|(i, q)| q + step(i))
+                .collect(),
+            y_u,
+        }
+    }
+}
 
 /// A path step's one-sided run ([`Worker::solve_on_branch`]) is checked against the
 /// two-sided one where its q lands farther from the prediction than this multiple of the
@@ -440,6 +525,61 @@ fn max_radius(model: &Model) -> f64 {
 mod tests {
     use super::*;
     use crate::workspace::RayEnds;
+
+    /// The ray start's prediction is the solution's first-order Taylor step: against IK
+    /// solutions at (h cos θ, h sin θ) from the origin at z = −30 mm its error shrinks
+    /// like h² (a wrong tangent leaves an error of order h).
+    #[test]
+    fn the_ray_start_predicts_to_first_order() {
+        let path = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
+        let design = Tdpcr::from_ron_file(path).unwrap();
+        let mut w = Worker::new(&design, &WorkspaceSettings::default()).unwrap();
+        let model = w.solver.model().clone();
+        let zero = Wrench::default();
+        let at = |x: f64, y: f64| Pose {
+            position: Vector3::new(x, y, -0.03),
+            rotation: Matrix3::identity(),
+        };
+        let origin = w.solver.solve_ik(&at(0.0, 0.0), &zero, None).unwrap().state;
+        let start = w.ray_start(&model, &origin).unwrap();
+        let in_zeta = |s: &RobotState| {
+            let mut y = s.y_u.clone();
+            convert_tendon_unknowns(&model, &mut y, TendonUnknown::Gamma, TendonUnknown::Linear);
+            s.q.iter().chain(&y).copied().collect::<Vec<f64>>()
+        };
+        for theta in [0.3_f64, 2.0] {
+            let mut error = |h: f64| {
+                let (dx, dy) = (h * theta.cos(), h * theta.sin());
+                let guess = start.guess(&model, &origin, dx, dy);
+                let solved = w
+                    .solver
+                    .solve_ik(&at(dx, dy), &zero, Some(&origin))
+                    .unwrap();
+                let (a, b) = (in_zeta(&guess), in_zeta(&solved.state));
+                let moved = in_zeta(&origin)
+                    .iter()
+                    .zip(&b)
+                    .map(|(o, s)| (o - s).abs())
+                    .fold(0.0, f64::max);
+                let off = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max);
+                (off, moved)
+            };
+            let (e1, moved) = error(2e-4);
+            let (e2, _) = error(1e-4);
+            assert!(
+                e1 < 0.01 * moved,
+                "θ = {theta}: error {e1:e} for a move of {moved:e}"
+            );
+            assert!(
+                e2 < 0.35 * e1,
+                "θ = {theta}: {e2:e} at h/2 against {e1:e} at h"
+            );
+        }
+    }
 
     #[test]
     fn only_a_solve_without_a_solution_ends_a_ray_as_not_converged() {

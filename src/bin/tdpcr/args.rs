@@ -67,9 +67,8 @@ pub struct WorkspaceArgs {
     #[arg(long)]
     pub through_collisions: bool,
     /// Newton steps with the Jacobian's taut slope only, as before one-sided kink columns
-    /// (library: `WorkspaceSettings::one_sided_kinks = false`): the same map up to the
-    /// cells where a step across a leg singularity converges only one-sided, about
-    /// 10 % slower.
+    /// (library: `WorkspaceSettings::one_sided_kinks = false`): the map of before up to
+    /// round-off, about 15 % slower than the default.
     #[arg(long)]
     pub two_sided_kinks: bool,
     /// Output directory (created if missing): points.csv, summary.json, slice figures.
