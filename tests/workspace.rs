@@ -363,7 +363,7 @@ fn a_plane_origin_where_leg_singularity_lines_meet_does_not_starve_its_plane() {
 /// the reference design's planes z = −12 … 0 mm at Δ = 3 mm, φ = 0.1 rad: the same cells
 /// on the same solutions (q within 1e-9 m where a cell is solved at the same position),
 /// none lost, at most a handful gained, for fewer than half the Newton Jacobians
-/// (measured: 5 532 → 1 538; the full Δ = 3 mm sweep: 169 242 → 44 646 with the tangent
+/// (measured: 5 532 → 1 538; the full Δ = 3 mm sweep: 169 242 → 44 980 with the tangent
 /// ray starts, 30 cells gained).
 #[test]
 fn one_sided_kink_columns_keep_the_map_for_fewer_jacobians() {
@@ -416,4 +416,23 @@ fn one_sided_kink_columns_keep_the_map_for_fewer_jacobians() {
         assert!(dq < 1e-9, "cell {:?}: q differs by {dq:e} m", p.cell);
     }
     assert!(compared > 5000, "{compared} cells compared");
+}
+
+/// The home configuration is a cold solve and stays two-sided: with one-sided kink
+/// columns the ψ = 0 twin's home at R_ee = Rz(−30°) (the paper's Fig. 7 slice) landed on
+/// another equilibrium and the sweep had no valid home (0 cells; 167 collision cells
+/// with the right one).
+#[test]
+fn the_home_of_a_rotated_slice_is_the_two_sided_cold_solve() {
+    let design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
+    let settings = WorkspaceSettings {
+        rotvec: [0.0, 0.0, -std::f64::consts::PI / 6.0],
+        step: 0.01,
+        angle_step: 0.8,
+        z_range: [0.0, 0.0],
+        ..Default::default()
+    };
+    let map = sweep_workspace(&design, &settings).unwrap();
+    assert_eq!(map.summary.planes_reached, 1, "{:?}", map.summary.path_ends);
+    assert!(map.summary.counts.reachable > 0);
 }

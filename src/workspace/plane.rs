@@ -49,10 +49,15 @@ pub(super) fn reach_planes(
         position: Vector3::zeros(),
         rotation,
     };
+    // A cold solve: two-sided, as the solver's cold solves (one-sided kink columns can
+    // land a cold run on another equilibrium: the ψ = 0 twin at R_ee = Rz(−30°) then
+    // had no valid home).
+    home_worker.solver.one_sided_kinks = false;
     let home =
         home_worker
             .solver
             .solve_ik_with(&home_pose, &Wrench::default(), None, &home_settings)?;
+    home_worker.solver.one_sided_kinks = settings.one_sided_kinks;
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state) {
