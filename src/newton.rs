@@ -453,8 +453,10 @@ impl NewtonScratch {
     }
 
     /// Solves J δ = b with the last factorized Jacobian J of the last solve (the exact
-    /// Jacobian at the last point where it was evaluated, near the solution), in place;
-    /// `None` if there is none or it was singular.
+    /// Jacobian at the last point where it was evaluated, near the solution, with the
+    /// one-sided kink columns its last Newton step took, if any:
+    /// [`NonlinearSystem::one_sided_column`]), in place; `None` if there is none or it was
+    /// singular.
     pub fn solve_with_last_jacobian(&self, b: &mut DVector<f64>) -> Option<()> {
         if !(self.factored && self.newton_ok) {
             return None;
@@ -627,6 +629,14 @@ pub fn solve<S: NonlinearSystem>(
         if fresh && newton_ok && one_sided_columns(system, x, sc) {
             sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
             newton_ok = newton_step(sc);
+            if !newton_ok {
+                // Singular with the one-sided columns (a pair switching sides: the tendon
+                // going slack gets its slack column while its mate, slack too, is about to
+                // turn taut): back to the two-sided Jacobian and its step.
+                std::mem::swap(&mut sc.jac, &mut sc.jac_trial);
+                sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+                newton_ok = newton_step(sc);
+            }
         }
         for i in 0..n {
             sc.work[i] = sc.r[i] * sc.weights[i];
@@ -822,7 +832,8 @@ fn newton_step(sc: &mut NewtonScratch) -> bool {
 /// Replaces (row-weighted) each column of `sc.jac` whose unknown the Newton step in
 /// `sc.newton_step` takes across a kink by the system's one-sided column
 /// ([`NonlinearSystem::one_sided_column`]); whether any was replaced (the caller then
-/// factors and solves again).
+/// factors and solves again). The Jacobian before is kept in `sc.jac_trial` (stale at
+/// this point of an iteration) if any was.
 fn one_sided_columns<S: NonlinearSystem>(
     system: &S,
     x: &DVector<f64>,
@@ -831,6 +842,9 @@ fn one_sided_columns<S: NonlinearSystem>(
     let mut replaced = false;
     for j in 0..x.len() {
         if system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
+            if !replaced {
+                sc.jac_trial.copy_from(&sc.jac);
+            }
             for (i, w) in sc.weights.iter().enumerate() {
                 sc.jac[(i, j)] = w * sc.rows[i];
             }
@@ -897,11 +911,7 @@ fn start_from_last_jacobian<S: NonlinearSystem>(
     if !sc.newton_ok {
         return LastJacobianStart::Declined { evaluations: 1 };
     }
-    for i in 0..sc.r.len() {
-        sc.newton_step[i] = -(sc.r[i] * sc.weights[i]);
-    }
-    sc.lu.solve_in_place(&mut sc.newton_step);
-    if !finite(&sc.newton_step) || system.step_limit(x, &sc.newton_step) < 1.0 {
+    if !newton_step(sc) || system.step_limit(x, &sc.newton_step) < 1.0 {
         return LastJacobianStart::Declined { evaluations: 1 };
     }
     system.retract(x, &sc.newton_step, &mut sc.x_trial);
@@ -1217,6 +1227,68 @@ mod tests {
         fn row_weights(&self, w: &mut DVector<f64>) {
             w.fill(1.0);
         }
+    }
+
+    /// [`Shifted`] whose unknown 0 offers a one-sided column for every step that lowers
+    /// it: a column of zeros (a singular system), or `e₀` (a valid one).
+    struct OneSided(Shifted, f64);
+
+    impl NonlinearSystem for OneSided {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            self.0.residual(x, r)
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.0.residual_and_jacobian(x, r, j)
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn one_sided_column(
+            &self,
+            _x: &DVector<f64>,
+            step: &DVector<f64>,
+            j: usize,
+            column: &mut DVector<f64>,
+        ) -> bool {
+            if j != 0 || step[0] >= 0.0 {
+                return false;
+            }
+            column.fill(0.0);
+            column[0] = self.1;
+            true
+        }
+    }
+
+    #[test]
+    fn a_singular_one_sided_system_keeps_the_two_sided_step() {
+        let settings = NewtonSettings::default();
+        let run =
+            |system: &mut dyn FnMut(&mut DVector<f64>, &mut NewtonScratch) -> NewtonReport| {
+                let mut x = DVector::from_vec(vec![3.0, 0.0]);
+                let mut sc = NewtonScratch::new(2, 60);
+                let report = system(&mut x, &mut sc);
+                (x, report)
+            };
+        let (plain, plain_report) =
+            run(&mut |x, sc| solve(&mut Shifted(1.0), x, &settings, sc).unwrap());
+        // From x₀ = 3 the first step lowers x₀: a zero column is singular, so the run
+        // is the plain one, bit for bit (a Cauchy step on the singular model would not).
+        let (singular, singular_report) =
+            run(&mut |x, sc| solve(&mut OneSided(Shifted(1.0), 0.0), x, &settings, sc).unwrap());
+        assert_eq!(plain, singular);
+        assert_eq!(plain_report, singular_report);
+        // A valid one-sided column changes the run (the hook is used).
+        let (other, _) =
+            run(&mut |x, sc| solve(&mut OneSided(Shifted(1.0), 2.0), x, &settings, sc).unwrap());
+        assert_ne!(plain, other);
     }
 
     #[test]

@@ -363,7 +363,7 @@ fn a_plane_origin_where_leg_singularity_lines_meet_does_not_starve_its_plane() {
 /// the reference design's planes z = −12 … 0 mm at Δ = 3 mm, φ = 0.1 rad: the same cells
 /// on the same solutions (q within 1e-9 m where a cell is solved at the same position),
 /// none lost, at most a handful gained, for fewer than half the Newton Jacobians
-/// (measured: 5 532 → 1 538; the full Δ = 3 mm sweep: 169 242 → 44 980 with the tangent
+/// (measured: 5 532 → 1 575; the full Δ = 3 mm sweep: 169 242 → 45 721 with the tangent
 /// ray starts, 30 cells gained).
 #[test]
 fn one_sided_kink_columns_keep_the_map_for_fewer_jacobians() {

@@ -334,8 +334,9 @@ impl Solver {
         finish(result, start, extra, &self.model, None)
     }
 
-    /// How many one-sided kink columns ([`Solver::one_sided_kinks`]) the Newton steps of
-    /// the last FK or square IK (converged or not) took: 0 means the run was the same as
+    /// How many one-sided kink columns ([`Solver::one_sided_kinks`]) the system offered
+    /// the Newton steps of the last FK or square IK (converged or not; a step whose
+    /// one-sided system was singular went on two-sided): 0 means the run was the same as
     /// without them.
     pub fn one_sided_columns_used(&self) -> usize {
         self.one_sided_columns_used

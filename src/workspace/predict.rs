@@ -36,29 +36,42 @@ pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotSta
     if history.len() < 2 {
         return None;
     }
-    let zeta: Vec<Vec<f64>> = history
-        .iter()
-        .map(|s| {
-            let mut y = s.y_u.clone();
-            convert_tendon_unknowns(model, &mut y, TendonUnknown::Gamma, TendonUnknown::Linear);
-            y
-        })
-        .collect();
+    let zeta: Vec<Vec<f64>> = history.iter().map(|s| in_zeta(model, s)).collect();
     let last = history[history.len() - 1];
-    let last_zeta = &zeta[zeta.len() - 1];
-    let mut y_u = extrapolate(&zeta.iter().map(Vec::as_slice).collect::<Vec<_>>());
+    let y_u = extrapolate(&zeta.iter().map(Vec::as_slice).collect::<Vec<_>>());
+    let q = extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>());
+    Some(predicted_state(model, last, &zeta[zeta.len() - 1], q, y_u))
+}
+
+/// The leg unknowns of `state` with the tendons' in ζ = γ|γ|.
+pub(super) fn in_zeta(model: &Model, state: &RobotState) -> Vec<f64> {
+    let mut y = state.y_u.clone();
+    convert_tendon_unknowns(model, &mut y, TendonUnknown::Gamma, TendonUnknown::Linear);
+    y
+}
+
+/// The predicted state of actuation `q` and leg unknowns `y_u` (tendons in ζ) at the pose
+/// of `last` (whose leg unknowns in ζ are `last_zeta`): a tendon predicted across its
+/// kink (ζ of the other sign than in `last`) starts at the kink, ζ = 0.
+pub(super) fn predicted_state(
+    model: &Model,
+    last: &RobotState,
+    last_zeta: &[f64],
+    q: Vec<f64>,
+    mut y_u: Vec<f64>,
+) -> RobotState {
     for i in model.tendon_unknown_indices() {
         if y_u[i] * last_zeta[i] < 0.0 {
             y_u[i] = 0.0;
         }
     }
     convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
-    Some(RobotState {
+    RobotState {
         position: last.position,
         rotvec: last.rotvec,
-        q: extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>()),
+        q,
         y_u,
-    })
+    }
 }
 
 /// The values one step past the last of `xs` (equal steps, oldest first) into `out`:

@@ -67,7 +67,7 @@ pub struct WorkspaceSettings {
     /// Whether the IK steps take one-sided kink columns ([`Solver::one_sided_kinks`]),
     /// checked against the two-sided run where a step lands far from its prediction or
     /// its trust region collapses (the default: the reference design's
-    /// Δ = 3 mm sweep with 30 more cells and a fifth of the Newton Jacobians, with the
+    /// Δ = 3 mm sweep with 30 more cells and a quarter of the Newton Jacobians, with the
     /// tangent ray starts); `false` takes the Jacobian's taut slopes only, as before.
     ///
     /// [`Solver::one_sided_kinks`]: crate::kinetostatics::Solver::one_sided_kinks

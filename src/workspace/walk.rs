@@ -9,20 +9,19 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::boundary::convert_tendon_unknowns;
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
 use crate::rod::Wrench;
-use crate::rod::tendon::{TendonUnknown, tension};
+use crate::rod::tendon::tension;
 
 use super::chord_jacobian::JacobianHistory;
 use super::collision::{CollisionChecker, first_collision_of};
 use super::ends::End;
 use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
-use super::predict::{PREDICTOR_POINTS, predict};
+use super::predict::{PREDICTOR_POINTS, in_zeta, predict, predicted_state};
 use super::settings::{CollisionPolicy, WorkspaceSettings};
 
 /// Counters shared by the workers (summed; their totals do not depend on the schedule).
@@ -204,7 +203,7 @@ impl Worker {
     /// Measured on the ψ = 0 twin's full Δ = 3 mm sweep: of 1 972 one-sided runs whose
     /// trust region collapsed, the two-sided run converged at 1 144; of the 2 695 that
     /// failed otherwise (too little progress, the iteration limit), at 287 only, and
-    /// retrying those too made the sweep 10 % slower than two-sided runs alone.
+    /// retrying those too made the sweep 7 % slower than two-sided runs alone.
     fn solve_on_branch(
         &mut self,
         pose: &Pose,
@@ -220,7 +219,9 @@ impl Worker {
         let suspect = match &first {
             Ok(s) => match history {
                 [.., before, last] => jump(s) > BRANCH_JUMP * max_difference(&last.q, &before.q),
-                // A ray's first step from its plane's start: the predicted change.
+                // A ray's first step from its plane's start: the predicted change (0
+                // without a start, the path along z's first step and a first substep:
+                // every one-sided run there is checked).
                 [last] => jump(s) > BRANCH_JUMP * max_difference(&guess.q, &last.q),
                 [] => false,
             },
@@ -237,9 +238,9 @@ impl Worker {
         }
         // The same run as the first, two-sided: from the same extrapolated Jacobian.
         self.jacobians.seed(&mut self.solver);
-        self.solver.one_sided_kinks = false;
+        let one_sided = std::mem::replace(&mut self.solver.one_sided_kinks, false);
         let second = self.solver.solve_ik_newton_with(pose, &zero, guess, newton);
-        self.solver.one_sided_kinks = true;
+        self.solver.one_sided_kinks = one_sided;
         work.solves.fetch_add(1, Ordering::Relaxed);
         for s in [&first, &second].into_iter().flatten() {
             work.add(&s.report);
@@ -432,29 +433,19 @@ impl RayStart {
         let nq = model.n_actuators();
         let [tx, ty] = &self.tangents;
         let step = |i: usize| dx * tx[i] + dy * ty[i];
-        let mut y_u = origin.y_u.clone();
-        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Gamma, TendonUnknown::Linear);
-        let last = y_u.clone();
-        for (i, y) in y_u.iter_mut().enumerate() {
-            *y += step(nq + i);
-        }
-        for i in model.tendon_unknown_indices() {
-            if y_u[i] * last[i] < 0.0 {
-                y_u[i] = 0.0;
-            }
-        }
-        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
-        RobotState {
-            position: origin.position,
-            rotvec: origin.rotvec,
-            q: origin
-                .q
-                .iter()
-                .enumerate()
-                .map(|(i, q)| q + step(i))
-                .collect(),
-            y_u,
-        }
+        let zeta = in_zeta(model, origin);
+        let y_u = zeta
+            .iter()
+            .enumerate()
+            .map(|(i, y)| y + step(nq + i))
+            .collect();
+        let q = origin
+            .q
+            .iter()
+            .enumerate()
+            .map(|(i, q)| q + step(i))
+            .collect();
+        predicted_state(model, origin, &zeta, q, y_u)
     }
 }
 
@@ -542,9 +533,8 @@ mod tests {
         };
         let origin = w.solver.solve_ik(&at(0.0, 0.0), &zero, None).unwrap().state;
         let start = w.ray_start(&model, &origin).unwrap();
-        let in_zeta = |s: &RobotState| {
-            let mut y = s.y_u.clone();
-            convert_tendon_unknowns(&model, &mut y, TendonUnknown::Gamma, TendonUnknown::Linear);
+        let unknowns = |s: &RobotState| {
+            let y = in_zeta(&model, s);
             s.q.iter().chain(&y).copied().collect::<Vec<f64>>()
         };
         for theta in [0.3_f64, 2.0] {
@@ -555,8 +545,8 @@ mod tests {
                     .solver
                     .solve_ik(&at(dx, dy), &zero, Some(&origin))
                     .unwrap();
-                let (a, b) = (in_zeta(&guess), in_zeta(&solved.state));
-                let moved = in_zeta(&origin)
+                let (a, b) = (unknowns(&guess), unknowns(&solved.state));
+                let moved = unknowns(&origin)
                     .iter()
                     .zip(&b)
                     .map(|(o, s)| (o - s).abs())
