@@ -908,9 +908,6 @@ fn start_from_last_jacobian<S: NonlinearSystem>(
             *d = if c > 0.0 { c } else { 1.0 };
         }
     }
-    if !sc.newton_ok {
-        return LastJacobianStart::Declined { evaluations: 1 };
-    }
     if !newton_step(sc) || system.step_limit(x, &sc.newton_step) < 1.0 {
         return LastJacobianStart::Declined { evaluations: 1 };
     }
