@@ -1,15 +1,18 @@
 //! Cold FK over 30 seeded actuation vectors that have an equilibrium on the home branch
 //! (`sampling::seeded_reachable_actuations`, seed 42): converged count, whether each
 //! solution is the certified one, median iterations and solve time (BENCHMARKS.md).
-//! `cold_fk_stats [DESIGN.ron]` (default: the reference design).
+//! `cold_fk_stats [DESIGN.ron] [--one-sided]` (default: the reference design;
+//! `--one-sided` turns on [`Solver::one_sided_kinks`]).
 use tdpcr::Tdpcr;
 use tdpcr::kinetostatics::Solver;
 use tdpcr::rod::Wrench;
 use tdpcr::sampling::seeded_reachable_actuations;
 
 fn main() {
+    let one_sided = std::env::args().any(|a| a == "--one-sided");
     let file = std::env::args()
-        .nth(1)
+        .skip(1)
+        .find(|a| a != "--one-sided")
         .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/designs/lilge2022.ron").into());
     let design = Tdpcr::from_ron_file(&file).unwrap();
     let sample = seeded_reachable_actuations(&design, 30, 42).unwrap();
@@ -21,6 +24,7 @@ fn main() {
         println!("  rejected q = {q:.4?}");
     }
     let mut solver = Solver::new(&design).expect("valid design");
+    solver.one_sided_kinks = one_sided;
     let (mut iterations, mut jacobians, mut times, mut failed, mut other_branch) =
         (vec![], vec![], vec![], 0, 0);
     for (q, pose) in sample.actuations.iter().zip(&sample.poses) {

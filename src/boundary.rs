@@ -274,7 +274,6 @@ pub fn boundary_derivatives(
 ) -> Result<(), SolveError> {
     let nt = model.n_tendons();
     let nu = model.n_leg_unknowns();
-    let lc = model.coupling_offset;
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
@@ -318,38 +317,82 @@ pub fn boundary_derivatives(
         }
         // B_u: leg i's unknowns, from its sensitivities.
         let y = &p.y_u[i * nu..];
-        let tip_axis = end.r.column(2).into_owned();
         for j in 0..nu {
-            // (sensitivity direction, scale): γ_k → τ_k direction · dτ/dγ.
-            let (dir, scale) = if j < nt {
-                (6 + j, p.tendon_unknown.tension_derivative(y[j]))
+            // (scale, slack slope): γ_k → τ_k direction · dτ/dγ, and dΘ/dγ.
+            let (scale, slack) = if j < nt {
+                (
+                    p.tendon_unknown.tension_derivative(y[j]),
+                    p.tendon_unknown.slack_derivative(y[j]),
+                )
             } else {
-                (j - nt, 1.0)
+                (1.0, 0.0)
             };
-            let d = &sc.sens[i].d[dir];
-            let col = i * nu + j;
-            let dn = d.n * scale;
-            let daxis = d.r.column(2) * scale;
-            let d_joint = d.m * scale - (daxis * lc).cross(&end.n) - (tip_axis * lc).cross(&dn);
-            let d_coupling = -(d.p * scale) - daxis * lc;
-            let d_moment = a.cross(&dn);
-            for c in 0..3 {
-                jac.b_u[(c, col)] = dn[c];
-                jac.b_u[(3 + c, col)] = d_moment[c];
-                jac.b_u[(row + c, col)] = d_coupling[c];
-                jac.b_u[(row + 3 + c, col)] = d_joint[c];
-            }
-            for k in 0..nt {
-                jac.b_u[(row + 6 + k, col)] = d.lengths[k] * scale;
-            }
-            if j < nt {
-                jac.b_u[(row + 6 + j, col)] += p.tendon_unknown.slack_derivative(y[j])
-                    - model.leg.tendon_ends[j] / model.leg.tendon_stiffness
-                        * p.tendon_unknown.tension_derivative(y[j]);
-            }
+            let column = jac.b_u.column_mut(i * nu + j);
+            leg_unknown_column(model, sc, p, i, j, scale, slack, column);
         }
     }
     Ok(())
+}
+
+/// Writes the nonzero entries of leg `leg`'s unknown `j` column of B_u into `column`
+/// from the sensitivities and leg ends of the last [`boundary_derivatives`] evaluation:
+/// the sensitivity direction times `scale` (a tendon's dτ/dx, 1 for a strain) and, for a
+/// tendon, `slack` (dΘ/dx) in its length row.
+#[allow(clippy::too_many_arguments)]
+fn leg_unknown_column<S: nalgebra::storage::StorageMut<f64, nalgebra::Dyn>>(
+    model: &Model,
+    sc: &BoundaryScratch,
+    p: &BoundaryPoint,
+    leg: usize,
+    j: usize,
+    scale: f64,
+    slack: f64,
+    mut column: nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::U1, S>,
+) {
+    let nt = model.n_tendons();
+    let lc = model.coupling_offset;
+    let end = &sc.ends[leg];
+    let row = leg_row(model, leg);
+    let a = p.pose.rotation * model.coupling_points[leg];
+    let tip_axis = end.r.column(2).into_owned();
+    let dir = if j < nt { 6 + j } else { j - nt };
+    let d = &sc.sens[leg].d[dir];
+    let dn = d.n * scale;
+    let daxis = d.r.column(2) * scale;
+    let d_joint = d.m * scale - (daxis * lc).cross(&end.n) - (tip_axis * lc).cross(&dn);
+    let d_coupling = -(d.p * scale) - daxis * lc;
+    let d_moment = a.cross(&dn);
+    for c in 0..3 {
+        column[c] = dn[c];
+        column[3 + c] = d_moment[c];
+        column[row + c] = d_coupling[c];
+        column[row + 3 + c] = d_joint[c];
+    }
+    for k in 0..nt {
+        column[row + 6 + k] = d.lengths[k] * scale;
+    }
+    if j < nt {
+        column[row + 6 + j] +=
+            slack - model.leg.tendon_ends[j] / model.leg.tendon_stiffness * scale;
+    }
+}
+
+/// The taut side's column of tendon `k` of leg `leg` (∂b/∂τ_k: the column of a tendon
+/// unknown with dτ/dx = 1, dΘ/dx = 0) into `column` (n values, zero elsewhere), from the
+/// last [`boundary_derivatives`] evaluation (which integrates every tension direction,
+/// slack tendons' too); `p` must be that evaluation's point. The one-sided Newton step of
+/// a slack tendon that the step makes taut takes it (MODEL.md "One-sided columns at the
+/// kink").
+pub(crate) fn taut_tension_column(
+    model: &Model,
+    sc: &BoundaryScratch,
+    p: &BoundaryPoint,
+    leg: usize,
+    k: usize,
+    mut column: nalgebra::DVectorViewMut<f64>,
+) {
+    column.fill(0.0);
+    leg_unknown_column(model, sc, p, leg, k, 1.0, 0.0, column);
 }
 
 /// B_w: the force rows see −f_ext, the moment rows −l_ext.

@@ -393,6 +393,8 @@ pub struct NewtonScratch {
     /// The Jacobian: raw after an evaluation, row-weighted once factored.
     jac: DMatrix<f64>,
     jac_trial: DMatrix<f64>,
+    /// The (weighted) two-sided Jacobian while `jac` holds one-sided kink columns.
+    jac_two_sided: DMatrix<f64>,
     lu: DenseLu,
     /// Whether `jac` is weighted and factored (its LU in `lu`).
     factored: bool,
@@ -426,6 +428,7 @@ impl NewtonScratch {
             units: v(),
             jac: DMatrix::zeros(n, n),
             jac_trial: DMatrix::zeros(n, n),
+            jac_two_sided: DMatrix::zeros(n, n),
             lu: DenseLu::new(n),
             factored: false,
             newton_ok: false,
@@ -591,6 +594,8 @@ pub fn solve<S: NonlinearSystem>(
     let mut norm = sc.history[sc.history.len() - 1];
     let mut merit = weighted_norm_sq(&sc.r, &sc.weights);
     let mut successes = 0usize;
+    // Whether one-sided kink columns may still be tried: not after one mispredicted.
+    let mut one_sided_allowed = true;
     // Whether the next trial is expected to contract well (then its Jacobian is not needed).
     let mut contracting = true;
     loop {
@@ -626,54 +631,33 @@ pub fn solve<S: NonlinearSystem>(
             radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
         }
         let mut newton_ok = newton_step(sc);
-        if fresh && newton_ok && one_sided_columns(system, x, sc) {
+        // Whether the factored Jacobian holds one-sided columns (the two-sided one is then
+        // in `sc.jac_two_sided`).
+        let mut one_sided = false;
+        if fresh && newton_ok && one_sided_allowed && one_sided_columns(system, x, sc) {
             sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
             newton_ok = newton_step(sc);
+            one_sided = newton_ok;
             if !newton_ok {
                 // Singular with the one-sided columns (a pair switching sides: the tendon
                 // going slack gets its slack column while its mate, slack too, is about to
                 // turn taut): back to the two-sided Jacobian and its step.
-                std::mem::swap(&mut sc.jac, &mut sc.jac_trial);
+                std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
                 sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
                 newton_ok = newton_step(sc);
             }
         }
-        for i in 0..n {
-            sc.work[i] = sc.r[i] * sc.weights[i];
-        }
-        sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
-        let newton_len = if newton_ok {
-            scaled_norm(&sc.newton_step, &sc.diag)
-        } else {
-            f64::INFINITY
-        };
-        // Cauchy point along s = −D⁻² g.
-        let g_scaled_sq: f64 = sc
-            .gradient
-            .as_slice()
-            .iter()
-            .zip(sc.diag.as_slice())
-            .map(|(g, d)| (g / d).powi(2))
-            .sum();
-        // (J s)_i with s = −D⁻² g, each row's sum in the order of j (column by column).
-        sc.rows.fill(0.0);
-        for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
-            let (g, dd) = (sc.gradient[j], sc.diag[j] * sc.diag[j]);
-            for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
-                *acc -= a * g / dd;
-            }
-        }
-        let js_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
-        let cauchy_t = if js_sq > 0.0 {
-            g_scaled_sq / js_sq
-        } else {
-            0.0
-        };
-        let s_len = g_scaled_sq.sqrt();
+        let mut dogleg = Dogleg::at(sc, newton_ok);
         // Inner loop: shrink the region until a step is accepted.
         let mut rejected = false;
         let (trial_jacobian, full_newton) = loop {
             let mut full_newton = false;
+            let Dogleg {
+                newton_ok,
+                newton_len,
+                cauchy_t,
+                s_len,
+            } = dogleg;
             if newton_ok && newton_len <= radius {
                 sc.step.copy_from(&sc.newton_step);
                 full_newton = true;
@@ -773,6 +757,16 @@ pub fn solve<S: NonlinearSystem>(
                 break (with_jacobian, full_newton);
             }
             rejected = true;
+            if one_sided {
+                // The one-sided model mispredicted (a shorter step may not reach the kink
+                // any more): on with the two-sided Jacobian and the shrunk region.
+                std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
+                sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+                let ok = newton_step(sc);
+                dogleg = Dogleg::at(sc, ok);
+                one_sided = false;
+                one_sided_allowed = false;
+            }
             if radius <= 1e-14 * scaled_norm(x, &sc.diag).max(1e-300) {
                 // The factored Jacobian is row-weighted: unweight it for the floor, in the
                 // test's units.
@@ -816,6 +810,65 @@ pub fn solve<S: NonlinearSystem>(
     }
 }
 
+/// The pieces of the dogleg step at the current iterate for the factored Jacobian; the
+/// gradient g = (W J)ᵀ W r goes into `sc.gradient`.
+#[derive(Debug, Clone, Copy)]
+struct Dogleg {
+    /// Whether there is a Newton step (in `sc.newton_step`).
+    newton_ok: bool,
+    /// Its scaled length ‖D s_N‖ (∞ without one).
+    newton_len: f64,
+    /// The Cauchy point's step length along s = −D⁻² g, in units of ‖D s‖.
+    cauchy_t: f64,
+    /// ‖D s‖ = ‖D⁻¹ g‖.
+    s_len: f64,
+}
+
+impl Dogleg {
+    /// The pieces for `sc`'s factored Jacobian, residual and Newton step (`newton_ok`:
+    /// whether there is one).
+    fn at(sc: &mut NewtonScratch, newton_ok: bool) -> Self {
+        let n = sc.r.len();
+        for i in 0..n {
+            sc.work[i] = sc.r[i] * sc.weights[i];
+        }
+        sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
+        let newton_len = if newton_ok {
+            scaled_norm(&sc.newton_step, &sc.diag)
+        } else {
+            f64::INFINITY
+        };
+        // Cauchy point along s = −D⁻² g.
+        let g_scaled_sq: f64 = sc
+            .gradient
+            .as_slice()
+            .iter()
+            .zip(sc.diag.as_slice())
+            .map(|(g, d)| (g / d).powi(2))
+            .sum();
+        // (J s)_i with s = −D⁻² g, each row's sum in the order of j (column by column).
+        sc.rows.fill(0.0);
+        for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
+            let (g, dd) = (sc.gradient[j], sc.diag[j] * sc.diag[j]);
+            for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
+                *acc -= a * g / dd;
+            }
+        }
+        let js_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
+        let cauchy_t = if js_sq > 0.0 {
+            g_scaled_sq / js_sq
+        } else {
+            0.0
+        };
+        Self {
+            newton_ok,
+            newton_len,
+            cauchy_t,
+            s_len: g_scaled_sq.sqrt(),
+        }
+    }
+}
+
 /// The Newton step −(W J)⁻¹ W r of the factored Jacobian into `sc.newton_step`; whether
 /// there is one (the factorization succeeded and the step is finite).
 fn newton_step(sc: &mut NewtonScratch) -> bool {
@@ -832,8 +885,8 @@ fn newton_step(sc: &mut NewtonScratch) -> bool {
 /// Replaces (row-weighted) each column of `sc.jac` whose unknown the Newton step in
 /// `sc.newton_step` takes across a kink by the system's one-sided column
 /// ([`NonlinearSystem::one_sided_column`]); whether any was replaced (the caller then
-/// factors and solves again). The Jacobian before is kept in `sc.jac_trial` (stale at
-/// this point of an iteration) if any was.
+/// factors and solves again). The Jacobian before is kept in `sc.jac_two_sided` if any
+/// was.
 fn one_sided_columns<S: NonlinearSystem>(
     system: &S,
     x: &DVector<f64>,
@@ -843,7 +896,7 @@ fn one_sided_columns<S: NonlinearSystem>(
     for j in 0..x.len() {
         if system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
             if !replaced {
-                sc.jac_trial.copy_from(&sc.jac);
+                sc.jac_two_sided.copy_from(&sc.jac);
             }
             for (i, w) in sc.weights.iter().enumerate() {
                 sc.jac[(i, j)] = w * sc.rows[i];
@@ -1262,6 +1315,33 @@ mod tests {
             column[0] = self.1;
             true
         }
+    }
+
+    #[test]
+    fn a_mispredicting_one_sided_column_gives_way_to_the_two_sided_jacobian() {
+        let settings = NewtonSettings::default();
+        let start = || DVector::from_vec(vec![3.0, 0.0]);
+        let mut x = start();
+        let mut sc = NewtonScratch::new(2, 60);
+        let plain = solve(&mut Shifted(1.0), &mut x, &settings, &mut sc).unwrap();
+        // A column of the wrong sign: its step raises x₀ where the root needs it lower,
+        // and every fresh iteration would offer it again (the trust region then
+        // collapses). After its first rejected step the run goes on two-sided.
+        let mut y = start();
+        let report = solve(
+            &mut OneSided(Shifted(1.0), -1.0),
+            &mut y,
+            &settings,
+            &mut sc,
+        )
+        .expect("the two-sided Jacobian takes over");
+        assert!((&y - &x).amax() < 1e-9, "{y} against {x}");
+        assert!(
+            report.iterations <= plain.iterations + 2,
+            "{} against {}",
+            report.iterations,
+            plain.iterations
+        );
     }
 
     #[test]

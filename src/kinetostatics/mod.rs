@@ -125,6 +125,8 @@ pub struct Solver {
     pub one_sided_kinks: bool,
     /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
     one_sided_columns_used: usize,
+    /// The slack tendons' taut-side columns at the last exact Jacobian of a square solve.
+    taut_columns: shooting::TautColumns,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
     /// (the predictor of warm starts from it), with the solutions before it on its path.
     last: Option<LastSolve>,
@@ -157,6 +159,7 @@ impl Solver {
             boundary: BoundaryScratch::new(&model),
             blocks: BoundaryJacobians::new(&model),
             newton: NewtonScratch::new(n, settings.max_iterations),
+            taut_columns: shooting::TautColumns::new(&model),
             model,
             settings,
             jacobian: JacobianMethod::Exact,

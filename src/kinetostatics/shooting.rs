@@ -19,7 +19,7 @@ use super::state::RobotState;
 use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
-    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns,
+    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns, taut_tension_column,
 };
 use crate::error::SolveError;
 use crate::model::{Model, Pose};
@@ -102,6 +102,7 @@ pub(super) fn run_with(
         wrench,
         one_sided_kinks: solver.one_sided_kinks,
         one_sided_columns_used: Cell::new(0),
+        taut: &mut solver.taut_columns,
     };
     // From the prediction if there is one; from the guess itself if that fails.
     let report = match predicted {
@@ -214,6 +215,35 @@ struct ShootingSystem<'a> {
     one_sided_kinks: bool,
     /// The one-sided columns handed to Newton so far.
     one_sided_columns_used: Cell<usize>,
+    /// The slack tendons' taut-side columns at the last exact Jacobian.
+    taut: &'a mut TautColumns,
+}
+
+/// The taut side's columns ∂b/∂τ_k of the tendons that were slack (ζ < 0) at the last
+/// exact Jacobian evaluation, and where it was: the one-sided column of a slack tendon
+/// that a Newton step makes taut ([`Solver::one_sided_kinks`]). The exact evaluation
+/// integrates every tension direction, slack or not, so they cost no integration.
+#[derive(Debug, Clone)]
+pub(super) struct TautColumns {
+    /// The unknowns of that evaluation.
+    at: DVector<f64>,
+    /// Column leg · n_t + k: tendon k of that leg (n × 3 n_t).
+    columns: DMatrix<f64>,
+    /// Which columns hold a slack tendon's taut column.
+    slack: Vec<bool>,
+}
+
+impl TautColumns {
+    /// Buffers for `model`'s FK and square IK.
+    pub(super) fn new(model: &Model) -> Self {
+        let n = model.n_residuals();
+        let nt = model.n_tendons();
+        Self {
+            at: DVector::zeros(n),
+            columns: DMatrix::zeros(n, 3 * nt),
+            slack: vec![false; 3 * nt],
+        }
+    }
 }
 
 impl ShootingSystem<'_> {
@@ -252,9 +282,24 @@ impl ShootingSystem<'_> {
         let Some(jac) = jac else {
             return boundary_residual(self.model, self.boundary, &p, r);
         };
+        self.taut.slack.fill(false);
         match self.method {
             JacobianMethod::Exact => {
-                boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?
+                boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?;
+                if self.one_sided_kinks && self.taut.at.len() == x.len() {
+                    let (nu, nt) = (self.model.n_leg_unknowns(), self.model.n_tendons());
+                    self.taut.at.copy_from(x);
+                    for leg in 0..3 {
+                        for k in 0..nt {
+                            if x[head + leg * nu + k] < 0.0 {
+                                let c = leg * nt + k;
+                                let column = self.taut.columns.column_mut(c);
+                                taut_tension_column(self.model, self.boundary, &p, leg, k, column);
+                                self.taut.slack[c] = true;
+                            }
+                        }
+                    }
+                }
             }
             JacobianMethod::FiniteDifference(m) => {
                 boundary_derivatives_fd(self.model, self.boundary, &p, m, r, self.blocks)?
@@ -331,10 +376,13 @@ impl NonlinearSystem for ShootingSystem<'_> {
         j: usize,
         column: &mut DVector<f64>,
     ) -> bool {
-        // A taut tendon at its kink (ζ ≥ 0, crossing within the first
-        // STEP_LIMIT_MIN_FRACTION of the step, which `step_limit` lets through) that the
-        // step sends into slack: the slack side's column, dΘ/dζ = −1 in its length row
-        // (the tension, and with it every other row, no longer depends on ζ).
+        // A tendon at its kink (crossing within the first STEP_LIMIT_MIN_FRACTION of the
+        // step, which `step_limit` lets through) that the step takes to the side whose
+        // slope the Jacobian at x does not hold:
+        // - taut (ζ ≥ 0) into slack: the slack side's column, dΘ/dζ = −1 in its length
+        //   row (the tension, and with it every other row, no longer depends on ζ);
+        // - slack (ζ < 0) into taut: the taut side's column ∂b/∂τ, kept from the exact
+        //   Jacobian at x ([`TautColumns`]).
         let (head, nu, nt) = (
             self.head(),
             self.model.n_leg_unknowns(),
@@ -344,12 +392,21 @@ impl NonlinearSystem for ShootingSystem<'_> {
             return false;
         }
         let (z, dz) = (x[j], step[j]);
-        if !(z >= 0.0 && z + dz < 0.0 && -z / dz < STEP_LIMIT_MIN_FRACTION) {
+        let crosses = if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 };
+        if !crosses || -z / dz >= STEP_LIMIT_MIN_FRACTION {
             return false;
         }
         let (leg, k) = ((j - head) / nu, (j - head) % nu);
-        column.fill(0.0);
-        column[6 + leg * nu + 6 + k] = -1.0;
+        if z >= 0.0 {
+            column.fill(0.0);
+            column[6 + leg * nu + 6 + k] = -1.0;
+        } else {
+            let c = leg * nt + k;
+            if !(self.taut.slack[c] && self.taut.at == *x) {
+                return false;
+            }
+            column.copy_from(&self.taut.columns.column(c));
+        }
         self.one_sided_columns_used
             .set(self.one_sided_columns_used.get() + 1);
         true
@@ -405,23 +462,47 @@ mod tests {
         (model, x)
     }
 
+    /// What a [`ShootingSystem`] borrows.
+    struct Buffers {
+        q: Vec<f64>,
+        wrench: Wrench,
+        boundary: BoundaryScratch,
+        blocks: BoundaryJacobians,
+        taut: TautColumns,
+    }
+
+    impl Buffers {
+        fn new(model: &Model) -> Self {
+            Self {
+                q: vec![0.0; model.n_actuators()],
+                wrench: Wrench::default(),
+                boundary: BoundaryScratch::new(model),
+                blocks: BoundaryJacobians::new(model),
+                taut: TautColumns::new(model),
+            }
+        }
+
+        /// The FK system at q = 0 with one-sided kink columns, exact Jacobians.
+        fn fk_at_zero<'a>(&'a mut self, model: &'a Model) -> ShootingSystem<'a> {
+            ShootingSystem {
+                model,
+                boundary: &mut self.boundary,
+                blocks: &mut self.blocks,
+                method: JacobianMethod::Exact,
+                problem: Problem::Forward { q: &self.q },
+                wrench: &self.wrench,
+                one_sided_kinks: true,
+                one_sided_columns_used: Cell::new(0),
+                taut: &mut self.taut,
+            }
+        }
+    }
+
     #[test]
     fn the_one_sided_column_is_the_slack_sides_derivative() {
         let (model, x) = system_at_kink();
-        let q = vec![0.0; model.n_actuators()];
-        let wrench = Wrench::default();
-        let mut boundary = BoundaryScratch::new(&model);
-        let mut blocks = BoundaryJacobians::new(&model);
-        let mut system = ShootingSystem {
-            model: &model,
-            boundary: &mut boundary,
-            blocks: &mut blocks,
-            method: JacobianMethod::Exact,
-            problem: Problem::Forward { q: &q },
-            wrench: &wrench,
-            one_sided_kinks: true,
-            one_sided_columns_used: Cell::new(0),
-        };
+        let mut buffers = Buffers::new(&model);
+        let mut system = buffers.fk_at_zero(&model);
         let n = x.len();
         let nu = model.n_leg_unknowns();
         let mut step = DVector::from_element(n, 1e-3);
@@ -456,6 +537,57 @@ mod tests {
         system.one_sided_kinks = false;
         step[6] = -1e-3;
         assert!(!system.one_sided_column(&x, &step, 6, &mut column));
+        assert_eq!(system.one_sided_columns_used.get(), 3);
+    }
+
+    #[test]
+    fn the_one_sided_column_of_a_slack_tendon_is_the_taut_sides_derivative() {
+        let (model, mut x) = system_at_kink();
+        let nu = model.n_leg_unknowns();
+        for leg in 0..3 {
+            x[6 + leg * nu] = -1e-9;
+        }
+        let mut buffers = Buffers::new(&model);
+        let mut system = buffers.fk_at_zero(&model);
+        let n = x.len();
+        let (mut r, mut r0, mut r1) = (DVector::zeros(n), DVector::zeros(n), DVector::zeros(n));
+        let (mut jac, mut jac_at_kink) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
+        let mut column = DVector::zeros(n);
+        let mut at_kink = x.clone();
+        for leg in 0..3 {
+            at_kink[6 + leg * nu] = 0.0;
+        }
+        system
+            .residual_and_jacobian(&at_kink, &mut r0, &mut jac_at_kink)
+            .unwrap();
+        system.residual_and_jacobian(&x, &mut r, &mut jac).unwrap();
+        let mut step = DVector::from_element(n, 1e-3);
+        for leg in 0..3 {
+            let j = 6 + leg * nu;
+            // The Jacobian at x holds the slack slope: −1 in the length row only.
+            assert_eq!(jac.column(j).iter().filter(|v| **v != 0.0).count(), 1);
+            // Into taut: the taut side's slope, which the Jacobian at the kink holds, and a
+            // one-sided difference from the kink.
+            assert!(system.one_sided_column(&x, &step, j, &mut column));
+            assert!((&column - jac_at_kink.column(j)).amax() < 1e-12 * column.amax());
+            // (The residual's round-off is ~1e-11 N: the shear force is K_se (v − v*) with
+            // K_se ~ 1e4 N; h = 1e-5 N keeps it and the O(h) curvature near 1e-7.)
+            let h = 1e-5;
+            let mut xh = at_kink.clone();
+            xh[j] = h;
+            system.residual(&xh, &mut r1).unwrap();
+            let fd = (&r1 - &r0) / h;
+            let error = (&fd - &column).amax() / column.amax();
+            assert!(error < 1e-6, "leg {leg}: {error:e}");
+            // Staying slack: the Jacobian's own.
+            step[j] = -1e-3;
+            assert!(!system.one_sided_column(&x, &step, j, &mut column));
+            step[j] = 1e-3;
+        }
+        // Only at the point of the last exact Jacobian.
+        let mut other = x.clone();
+        other[0] += 1e-6;
+        assert!(!system.one_sided_column(&other, &step, 6, &mut column));
         assert_eq!(system.one_sided_columns_used.get(), 3);
     }
 }
