@@ -70,19 +70,21 @@ pub trait NonlinearSystem {
     }
 
     /// For a system with kinks: whether the Newton step `step` from `x` leaves the kink
-    /// of unknown `j` (at `x`) for the side whose slope the Jacobian at `x` does not hold;
-    /// if so, the raw column ∂F/∂x_j of that side is written into `column` (n values) and
-    /// [`solve`] solves the step again with it (the element of the generalized Jacobian
-    /// that agrees with the step, as in semismooth Newton). Default: never.
+    /// of unknown `j` (near `x`) for the side whose slope the Jacobian at `x` does not
+    /// hold; if so, the raw column ∂F/∂x_j of that side is written into `column` (n
+    /// values) and the distance x_j − k_j of `x` from the kink k_j is returned, and
+    /// [`solve`] solves the step again with that column, anchored at the kink (the
+    /// element of the generalized Jacobian that agrees with the step, as in semismooth
+    /// Newton). Default: never.
     fn one_sided_column(
         &self,
         x: &DVector<f64>,
         step: &DVector<f64>,
         j: usize,
         column: &mut DVector<f64>,
-    ) -> bool {
+    ) -> Option<f64> {
         let _ = (x, step, j, column);
-        false
+        None
     }
 }
 
@@ -395,6 +397,9 @@ pub struct NewtonScratch {
     jac_trial: DMatrix<f64>,
     /// The (weighted) two-sided Jacobian while `jac` holds one-sided kink columns.
     jac_two_sided: DMatrix<f64>,
+    /// W (J₁ − J) d: the one-sided model's offset from anchoring its columns at their
+    /// kinks (zero while `jac` is two-sided).
+    kink_shift: DVector<f64>,
     lu: DenseLu,
     /// Whether `jac` is weighted and factored (its LU in `lu`).
     factored: bool,
@@ -429,6 +434,7 @@ impl NewtonScratch {
             jac: DMatrix::zeros(n, n),
             jac_trial: DMatrix::zeros(n, n),
             jac_two_sided: DMatrix::zeros(n, n),
+            kink_shift: v(),
             lu: DenseLu::new(n),
             factored: false,
             newton_ok: false,
@@ -630,6 +636,7 @@ pub fn solve<S: NonlinearSystem>(
             let dx = scaled_norm(x, &sc.diag);
             radius = settings.initial_radius_factor * if dx > 0.0 { dx } else { 1.0 };
         }
+        sc.kink_shift.fill(0.0);
         let mut newton_ok = newton_step(sc);
         // Whether the factored Jacobian holds one-sided columns (the two-sided one is then
         // in `sc.jac_two_sided`).
@@ -643,6 +650,7 @@ pub fn solve<S: NonlinearSystem>(
                 // going slack gets its slack column while its mate, slack too, is about to
                 // turn taut): back to the two-sided Jacobian and its step.
                 std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
+                sc.kink_shift.fill(0.0);
                 sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
                 newton_ok = newton_step(sc);
             }
@@ -699,6 +707,7 @@ pub fn solve<S: NonlinearSystem>(
             // W r + W J step, each row's sum in the order of j (column by column).
             sc.rows.copy_from(&sc.r);
             sc.rows.component_mul_assign(&sc.weights);
+            sc.rows += &sc.kink_shift;
             for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
                 let step = sc.step[j];
                 for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
@@ -761,6 +770,7 @@ pub fn solve<S: NonlinearSystem>(
                 // The one-sided model mispredicted (a shorter step may not reach the kink
                 // any more): on with the two-sided Jacobian and the shrunk region.
                 std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
+                sc.kink_shift.fill(0.0);
                 sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
                 let ok = newton_step(sc);
                 dogleg = Dogleg::at(sc, ok);
@@ -876,7 +886,7 @@ fn newton_step(sc: &mut NewtonScratch) -> bool {
         return false;
     }
     for i in 0..sc.r.len() {
-        sc.newton_step[i] = -(sc.r[i] * sc.weights[i]);
+        sc.newton_step[i] = -(sc.r[i] * sc.weights[i] + sc.kink_shift[i]);
     }
     sc.lu.solve_in_place(&mut sc.newton_step);
     sc.newton_step.as_slice().iter().all(|v| v.is_finite())
@@ -894,12 +904,16 @@ fn one_sided_columns<S: NonlinearSystem>(
 ) -> bool {
     let mut replaced = false;
     for j in 0..x.len() {
-        if system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
+        if let Some(d) = system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
             if !replaced {
                 sc.jac_two_sided.copy_from(&sc.jac);
+                sc.kink_shift.fill(0.0);
             }
             for (i, w) in sc.weights.iter().enumerate() {
-                sc.jac[(i, j)] = w * sc.rows[i];
+                let new = w * sc.rows[i];
+                // Anchored at the kink: F(x + s) = F(x) + (J_new − J_old)_j d + J₁ s.
+                sc.kink_shift[i] += (new - sc.jac[(i, j)]) * d;
+                sc.jac[(i, j)] = new;
             }
             replaced = true;
         }
@@ -1307,14 +1321,75 @@ mod tests {
             step: &DVector<f64>,
             j: usize,
             column: &mut DVector<f64>,
-        ) -> bool {
+        ) -> Option<f64> {
             if j != 0 || step[0] >= 0.0 {
-                return false;
+                return None;
             }
             column.fill(0.0);
             column[0] = self.1;
-            true
+            Some(0.0)
         }
+    }
+
+    /// F(x) = x − t for x ≥ 0 and 2x − t below: a kink at 0, the Jacobian at 0 holding
+    /// the right side's slope; one-sided columns on (`Some`) or off.
+    struct Kinked(f64, bool);
+
+    impl NonlinearSystem for Kinked {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = if x[0] >= 0.0 { x[0] } else { 2.0 * x[0] } - self.0;
+            Ok(())
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.residual(x, r)?;
+            j[(0, 0)] = if x[0] >= 0.0 { 1.0 } else { 2.0 };
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn one_sided_column(
+            &self,
+            x: &DVector<f64>,
+            step: &DVector<f64>,
+            _j: usize,
+            column: &mut DVector<f64>,
+        ) -> Option<f64> {
+            if !(self.1 && x[0] >= 0.0 && x[0] + step[0] < 0.0) {
+                return None;
+            }
+            column[0] = 2.0;
+            Some(x[0])
+        }
+    }
+
+    #[test]
+    fn a_one_sided_step_is_anchored_at_the_kink() {
+        // From x = 0.01 to the root −0.5 beyond the kink: the right side's slope alone
+        // lands at −1.01, the left side's from x at −0.495; the left side's from the
+        // kink at the root.
+        let settings = NewtonSettings::default();
+        let mut sc = NewtonScratch::new(1, 60);
+        let mut run = |one_sided| {
+            let mut x = DVector::from_element(1, 0.01);
+            let report = solve(&mut Kinked(-1.0, one_sided), &mut x, &settings, &mut sc).unwrap();
+            (x[0], report.iterations)
+        };
+        let (x, iterations) = run(true);
+        assert_eq!((x, iterations), (-0.5, 1));
+        let (x, iterations) = run(false);
+        assert!(
+            (x + 0.5).abs() < 1e-12 && iterations > 1,
+            "{x} in {iterations}"
+        );
     }
 
     #[test]

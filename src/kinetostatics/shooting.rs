@@ -375,7 +375,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
         step: &DVector<f64>,
         j: usize,
         column: &mut DVector<f64>,
-    ) -> bool {
+    ) -> Option<f64> {
         // A tendon at its kink (crossing within the first STEP_LIMIT_MIN_FRACTION of the
         // step, which `step_limit` lets through) that the step takes to the side whose
         // slope the Jacobian at x does not hold:
@@ -389,12 +389,12 @@ impl NonlinearSystem for ShootingSystem<'_> {
             self.model.n_tendons(),
         );
         if !self.one_sided_kinks || j < head || (j - head) % nu >= nt {
-            return false;
+            return None;
         }
         let (z, dz) = (x[j], step[j]);
         let crosses = if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 };
         if !crosses || -z / dz >= STEP_LIMIT_MIN_FRACTION {
-            return false;
+            return None;
         }
         let (leg, k) = ((j - head) / nu, (j - head) % nu);
         if z >= 0.0 {
@@ -403,13 +403,14 @@ impl NonlinearSystem for ShootingSystem<'_> {
         } else {
             let c = leg * nt + k;
             if !(self.taut.slack[c] && self.taut.at == *x) {
-                return false;
+                return None;
             }
             column.copy_from(&self.taut.columns.column(c));
         }
         self.one_sided_columns_used
             .set(self.one_sided_columns_used.get() + 1);
-        true
+        // The kink is at ζ = 0.
+        Some(z)
     }
 }
 
@@ -513,7 +514,11 @@ mod tests {
             let j = 6 + leg * nu;
             // Into slack: the slack side's slope, checked by a one-sided difference.
             step[j] = -1e-3;
-            assert!(system.one_sided_column(&x, &step, j, &mut column));
+            // Anchored at the kink ζ = 0: the distance is ζ.
+            assert_eq!(
+                system.one_sided_column(&x, &step, j, &mut column),
+                Some(x[j])
+            );
             let h = 1e-6;
             let mut xh = x.clone();
             xh[j] = -h;
@@ -526,17 +531,25 @@ mod tests {
             );
             // Staying taut, or a taut tendon well before its kink: the Jacobian's own.
             step[j] = 1e-3;
-            assert!(!system.one_sided_column(&x, &step, j, &mut column));
+            assert!(system.one_sided_column(&x, &step, j, &mut column).is_none());
             let mut far = x.clone();
             far[j] = 1e-3;
             step[j] = -2e-3;
-            assert!(!system.one_sided_column(&far, &step, j, &mut column));
+            assert!(
+                system
+                    .one_sided_column(&far, &step, j, &mut column)
+                    .is_none()
+            );
             // Not a tendon unknown.
-            assert!(!system.one_sided_column(&x, &step, j + model.n_tendons(), &mut column));
+            assert!(
+                system
+                    .one_sided_column(&x, &step, j + model.n_tendons(), &mut column)
+                    .is_none()
+            );
         }
         system.one_sided_kinks = false;
         step[6] = -1e-3;
-        assert!(!system.one_sided_column(&x, &step, 6, &mut column));
+        assert!(system.one_sided_column(&x, &step, 6, &mut column).is_none());
         assert_eq!(system.one_sided_columns_used.get(), 3);
     }
 
@@ -568,7 +581,11 @@ mod tests {
             assert_eq!(jac.column(j).iter().filter(|v| **v != 0.0).count(), 1);
             // Into taut: the taut side's slope, which the Jacobian at the kink holds, and a
             // one-sided difference from the kink.
-            assert!(system.one_sided_column(&x, &step, j, &mut column));
+            // Anchored at the kink ζ = 0: the distance is ζ.
+            assert_eq!(
+                system.one_sided_column(&x, &step, j, &mut column),
+                Some(x[j])
+            );
             assert!((&column - jac_at_kink.column(j)).amax() < 1e-12 * column.amax());
             // (The residual's round-off is ~1e-11 N: the shear force is K_se (v − v*) with
             // K_se ~ 1e4 N; h = 1e-5 N keeps it and the O(h) curvature near 1e-7.)
@@ -581,13 +598,17 @@ mod tests {
             assert!(error < 1e-6, "leg {leg}: {error:e}");
             // Staying slack: the Jacobian's own.
             step[j] = -1e-3;
-            assert!(!system.one_sided_column(&x, &step, j, &mut column));
+            assert!(system.one_sided_column(&x, &step, j, &mut column).is_none());
             step[j] = 1e-3;
         }
         // Only at the point of the last exact Jacobian.
         let mut other = x.clone();
         other[0] += 1e-6;
-        assert!(!system.one_sided_column(&other, &step, 6, &mut column));
+        assert!(
+            system
+                .one_sided_column(&other, &step, 6, &mut column)
+                .is_none()
+        );
         assert_eq!(system.one_sided_columns_used.get(), 3);
     }
 }
