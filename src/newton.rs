@@ -398,7 +398,8 @@ pub struct NewtonScratch {
     /// The (weighted) two-sided Jacobian while `jac` holds one-sided kink columns.
     jac_two_sided: DMatrix<f64>,
     /// W (J₁ − J) d: the one-sided model's offset from anchoring its columns at their
-    /// kinks (zero while `jac` is two-sided).
+    /// kinks; non-zero only while `jac` holds one-sided columns built at the current
+    /// iterate (cleared at the start of each run and of each iteration).
     kink_shift: DVector<f64>,
     lu: DenseLu,
     /// Whether `jac` is weighted and factored (its LU in `lu`).
@@ -557,6 +558,9 @@ pub fn solve<S: NonlinearSystem>(
     system.row_weights(&mut sc.weights);
     fill_test_units(&mut sc.units, |c| system.row_scales(c));
     sc.history.clear();
+    // A one-sided model's anchor belongs to the iterate it was built at (a run that
+    // converged right after such a step leaves it).
+    sc.kink_shift.fill(0.0);
     let warm = std::mem::take(&mut sc.reuse_next) && sc.reusable;
     sc.reusable = false;
     let mut evaluations = 0;
@@ -879,7 +883,8 @@ impl Dogleg {
     }
 }
 
-/// The Newton step −(W J)⁻¹ W r of the factored Jacobian into `sc.newton_step`; whether
+/// The Newton step −(W J)⁻¹ (W r + s) of the factored Jacobian into `sc.newton_step`,
+/// with s the one-sided model's anchor `sc.kink_shift` (zero for a two-sided Jacobian); whether
 /// there is one (the factorization succeeded and the step is finite).
 fn newton_step(sc: &mut NewtonScratch) -> bool {
     if !sc.newton_ok {
@@ -1354,7 +1359,8 @@ mod tests {
             Ok(())
         }
         fn row_weights(&self, w: &mut DVector<f64>) {
-            w.fill(1.0);
+            // Not 1: the anchor must be weighted like the Jacobian.
+            w.fill(3.0);
         }
         fn one_sided_column(
             &self,
@@ -1390,6 +1396,22 @@ mod tests {
             (x + 0.5).abs() < 1e-12 && iterations > 1,
             "{x} in {iterations}"
         );
+    }
+
+    #[test]
+    fn a_warm_start_after_a_one_sided_step_has_no_anchor() {
+        // The first run converges right after its anchored one-sided step; the second
+        // starts from its (one-sided, left side's) Jacobian with the target moved on the
+        // left side: the chord step is exact there, with no Jacobian of its own.
+        let settings = NewtonSettings::default();
+        let mut sc = NewtonScratch::new(1, 60);
+        let mut x = DVector::from_element(1, 0.01);
+        solve(&mut Kinked(-1.0, true), &mut x, &settings, &mut sc).unwrap();
+        assert_eq!(x[0], -0.5);
+        sc.reuse_jacobian_once();
+        let report = solve(&mut Kinked(-1.02, true), &mut x, &settings, &mut sc).unwrap();
+        assert_eq!(x[0], -0.51);
+        assert_eq!(report.jacobian_evaluations, 0);
     }
 
     #[test]

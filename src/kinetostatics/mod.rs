@@ -117,11 +117,14 @@ pub struct Solver {
     /// then repeats exactly, where fresh steps creep by ≈ 4e-8 m per cycle. The
     /// within-limits IK always starts with a fresh Jacobian.
     pub reuse_least_norm_factorization: bool,
-    /// Whether a Newton step of FK or square IK that sends a taut tendon at its kink
-    /// (ζ = 0) into slack is solved again with that tendon's slack-side column (the
-    /// one-sided slope the step takes; no integration). Without it such a step follows
-    /// the taut slope beyond the kink, overshoots, and the trust region collapses
-    /// before the pair crawls across (BENCHMARKS.md "Heavy solves").
+    /// Whether a Newton step of FK or square IK that takes a tendon across its kink
+    /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the
+    /// one-sided slope the step takes, anchored at the kink; no integration): taut into
+    /// slack the slack column, slack into taut the taut column kept from the exact
+    /// Jacobian. After the first rejected step of such a model the run goes on
+    /// two-sided (MODEL.md "One-sided columns at the kink"). Without it such a step
+    /// follows the old side's slope beyond the kink, overshoots, and the trust region
+    /// collapses before the pair crawls across (BENCHMARKS.md "Heavy solves").
     pub one_sided_kinks: bool,
     /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
     one_sided_columns_used: usize,
@@ -338,9 +341,9 @@ impl Solver {
     }
 
     /// How many one-sided kink columns ([`Solver::one_sided_kinks`]) the system offered
-    /// the Newton steps of the last FK or square IK (converged or not; a step whose
-    /// one-sided system was singular went on two-sided): 0 means the run was the same as
-    /// without them.
+    /// the Newton steps of the last FK or square IK (converged or not; counted also where
+    /// the one-sided system was singular, or its step was rejected, and the run went on
+    /// two-sided): 0 means the run was the same as without them.
     pub fn one_sided_columns_used(&self) -> usize {
         self.one_sided_columns_used
     }

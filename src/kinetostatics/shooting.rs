@@ -286,6 +286,8 @@ impl ShootingSystem<'_> {
         match self.method {
             JacobianMethod::Exact => {
                 boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?;
+                // The taut column is ∂b/∂τ: the column of ζ only while dτ/dζ = 1.
+                debug_assert_eq!(SOLVER_TENDON_UNKNOWN.tension_derivative(0.0), 1.0);
                 if self.one_sided_kinks && self.taut.at.len() == x.len() {
                     let (nu, nt) = (self.model.n_leg_unknowns(), self.model.n_tendons());
                     self.taut.at.copy_from(x);
@@ -556,9 +558,10 @@ mod tests {
     #[test]
     fn the_one_sided_column_of_a_slack_tendon_is_the_taut_sides_derivative() {
         let (model, mut x) = system_at_kink();
-        let nu = model.n_leg_unknowns();
-        for leg in 0..3 {
-            x[6 + leg * nu] = -1e-9;
+        let (nu, nt) = (model.n_leg_unknowns(), model.n_tendons());
+        let tendons = || (0..3).flat_map(move |leg| (0..nt).map(move |k| 6 + leg * nu + k));
+        for j in tendons() {
+            x[j] = -1e-9;
         }
         let mut buffers = Buffers::new(&model);
         let mut system = buffers.fk_at_zero(&model);
@@ -567,16 +570,15 @@ mod tests {
         let (mut jac, mut jac_at_kink) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
         let mut column = DVector::zeros(n);
         let mut at_kink = x.clone();
-        for leg in 0..3 {
-            at_kink[6 + leg * nu] = 0.0;
+        for j in tendons() {
+            at_kink[j] = 0.0;
         }
         system
             .residual_and_jacobian(&at_kink, &mut r0, &mut jac_at_kink)
             .unwrap();
         system.residual_and_jacobian(&x, &mut r, &mut jac).unwrap();
         let mut step = DVector::from_element(n, 1e-3);
-        for leg in 0..3 {
-            let j = 6 + leg * nu;
+        for j in tendons() {
             // The Jacobian at x holds the slack slope: −1 in the length row only.
             assert_eq!(jac.column(j).iter().filter(|v| **v != 0.0).count(), 1);
             // Into taut: the taut side's slope, which the Jacobian at the kink holds, and a
@@ -587,15 +589,18 @@ mod tests {
                 Some(x[j])
             );
             assert!((&column - jac_at_kink.column(j)).amax() < 1e-12 * column.amax());
-            // (The residual's round-off is ~1e-11 N: the shear force is K_se (v − v*) with
-            // K_se ~ 1e4 N; h = 1e-5 N keeps it and the O(h) curvature near 1e-7.)
-            let h = 1e-5;
+            // A second-order one-sided difference, (−3 b(0) + 4 b(h) − b(2h)) / 2h: the
+            // residual's round-off is ~1e-11 N (the shear force is K_se (v − v*) with
+            // K_se ~ 1e4 N), so h = 1e-4 N.
+            let h = 1e-4;
             let mut xh = at_kink.clone();
             xh[j] = h;
             system.residual(&xh, &mut r1).unwrap();
-            let fd = (&r1 - &r0) / h;
+            xh[j] = 2.0 * h;
+            system.residual(&xh, &mut r).unwrap();
+            let fd = (&r1 * 4.0 - &r0 * 3.0 - &r) / (2.0 * h);
             let error = (&fd - &column).amax() / column.amax();
-            assert!(error < 1e-6, "leg {leg}: {error:e}");
+            assert!(error < 1e-6, "unknown {j}: {error:e}");
             // Staying slack: the Jacobian's own.
             step[j] = -1e-3;
             assert!(system.one_sided_column(&x, &step, j, &mut column).is_none());
@@ -609,6 +614,6 @@ mod tests {
                 .one_sided_column(&other, &step, 6, &mut column)
                 .is_none()
         );
-        assert_eq!(system.one_sided_columns_used.get(), 3);
+        assert_eq!(system.one_sided_columns_used.get(), 3 * nt);
     }
 }
