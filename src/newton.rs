@@ -653,10 +653,7 @@ pub fn solve<S: NonlinearSystem>(
                 // Singular with the one-sided columns (a pair switching sides: the tendon
                 // going slack gets its slack column while its mate, slack too, is about to
                 // turn taut): back to the two-sided Jacobian and its step.
-                std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
-                sc.kink_shift.fill(0.0);
-                sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
-                newton_ok = newton_step(sc);
+                newton_ok = back_to_two_sided(sc);
             }
         }
         let mut dogleg = Dogleg::at(sc, newton_ok);
@@ -773,10 +770,7 @@ pub fn solve<S: NonlinearSystem>(
             if one_sided {
                 // The one-sided model mispredicted (a shorter step may not reach the kink
                 // any more): on with the two-sided Jacobian and the shrunk region.
-                std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
-                sc.kink_shift.fill(0.0);
-                sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
-                let ok = newton_step(sc);
+                let ok = back_to_two_sided(sc);
                 dogleg = Dogleg::at(sc, ok);
                 one_sided = false;
                 one_sided_allowed = false;
@@ -912,7 +906,6 @@ fn one_sided_columns<S: NonlinearSystem>(
         if let Some(d) = system.one_sided_column(x, &sc.newton_step, j, &mut sc.rows) {
             if !replaced {
                 sc.jac_two_sided.copy_from(&sc.jac);
-                sc.kink_shift.fill(0.0);
             }
             for (i, w) in sc.weights.iter().enumerate() {
                 let new = w * sc.rows[i];
@@ -924,6 +917,15 @@ fn one_sided_columns<S: NonlinearSystem>(
         }
     }
     replaced
+}
+
+/// Puts the two-sided Jacobian kept by [`one_sided_columns`] back (without an anchor),
+/// factors it and computes its Newton step; whether there is one.
+fn back_to_two_sided(sc: &mut NewtonScratch) -> bool {
+    std::mem::swap(&mut sc.jac, &mut sc.jac_two_sided);
+    sc.kink_shift.fill(0.0);
+    sc.newton_ok = sc.lu.factor(&sc.jac).is_ok();
+    newton_step(sc)
 }
 
 /// Multiplies each row i of `jac` by `w[i]`.

@@ -225,12 +225,11 @@ struct ShootingSystem<'a> {
 /// integrates every tension direction, slack or not, so they cost no integration.
 #[derive(Debug, Clone)]
 pub(super) struct TautColumns {
-    /// The unknowns of that evaluation.
+    /// The unknowns of that evaluation (NaN when the last exact evaluation kept none):
+    /// the columns of the tendons with ζ < 0 there are valid.
     at: DVector<f64>,
     /// Column leg · n_t + k: tendon k of that leg (n × 3 n_t).
     columns: DMatrix<f64>,
-    /// Which columns hold a slack tendon's taut column.
-    slack: Vec<bool>,
 }
 
 impl TautColumns {
@@ -239,9 +238,8 @@ impl TautColumns {
         let n = model.n_residuals();
         let nt = model.n_tendons();
         Self {
-            at: DVector::zeros(n),
+            at: DVector::from_element(n, f64::NAN),
             columns: DMatrix::zeros(n, 3 * nt),
-            slack: vec![false; 3 * nt],
         }
     }
 }
@@ -282,7 +280,7 @@ impl ShootingSystem<'_> {
         let Some(jac) = jac else {
             return boundary_residual(self.model, self.boundary, &p, r);
         };
-        self.taut.slack.fill(false);
+        self.taut.at.fill(f64::NAN);
         match self.method {
             JacobianMethod::Exact => {
                 boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?;
@@ -294,10 +292,8 @@ impl ShootingSystem<'_> {
                     for leg in 0..3 {
                         for k in 0..nt {
                             if x[head + leg * nu + k] < 0.0 {
-                                let c = leg * nt + k;
-                                let column = self.taut.columns.column_mut(c);
+                                let column = self.taut.columns.column_mut(leg * nt + k);
                                 taut_tension_column(self.model, self.boundary, &p, leg, k, column);
-                                self.taut.slack[c] = true;
                             }
                         }
                     }
@@ -403,11 +399,11 @@ impl NonlinearSystem for ShootingSystem<'_> {
             column.fill(0.0);
             column[6 + leg * nu + 6 + k] = -1.0;
         } else {
-            let c = leg * nt + k;
-            if !(self.taut.slack[c] && self.taut.at == *x) {
+            // Kept at x (NaN never compares equal), where this tendon was slack.
+            if self.taut.at != *x {
                 return None;
             }
-            column.copy_from(&self.taut.columns.column(c));
+            column.copy_from(&self.taut.columns.column(leg * nt + k));
         }
         self.one_sided_columns_used
             .set(self.one_sided_columns_used.get() + 1);
