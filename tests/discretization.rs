@@ -1,5 +1,5 @@
-//! The default discretization (26 fixed RK4 steps per leg) against a converged fine one
-//! (16× the steps): on every bundled parallel design, at home and at the test
+//! The default discretization (13 fixed steps of Butcher's fifth-order method per leg)
+//! against a converged fine one (16× the steps): on every bundled parallel design, at home and at the test
 //! configurations of the benches, the platform pose must be within 1 µm (position, and
 //! rotation times the leg length). Issue 17 allows fewer steps only where this holds;
 //! BENCHMARKS.md ("Fewer integration steps") has the measurements over random draws.
@@ -11,7 +11,7 @@ use tdpcr::Tdpcr;
 use tdpcr::kinetostatics::{RobotState, Solver};
 use tdpcr::rod::Wrench;
 
-/// The FK of `q` on `design` with `steps` RK4 steps per leg, from `start` if given
+/// The FK of `q` on `design` with `steps` integration steps per leg, from `start` if given
 /// (else from home, then a warm step to q): the solved state.
 fn fk(design: &Tdpcr, steps: usize, q: &[f64], start: Option<&RobotState>) -> RobotState {
     let mut d = design.clone();
@@ -57,7 +57,7 @@ fn the_default_steps_are_within_a_micrometre_of_a_fine_discretization() {
     let six = [0.004, 0.02, -0.003, -0.01, 0.002, 0.03];
     let nine = [0.004, -0.002, 0.02, -0.003, 0.003, -0.01, 0.002, 0.0, 0.03];
     // Strongly bent legs (9 of the 10 mm tendon displacements), bases 5 cm apart: here
-    // 13 steps would miss by 2.4 µm (rotation × L, measured).
+    // 13 RK4 steps would miss by 2.4 µm (rotation × L, measured).
     let six_bent = [-0.009, 0.05, 0.009, -0.05, 0.0, 0.0];
     let nine_bent = [-0.009, 0.004, 0.05, 0.009, -0.004, -0.05, 0.0, 0.006, 0.0];
     for (file, q) in [

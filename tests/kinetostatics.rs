@@ -397,11 +397,12 @@ fn least_norm_steps_from_the_last_factorization_repeat_going_back_and_forth() {
     // After the first cycle, steps are chord steps on the factorization of the first.
     assert_eq!(jacobians, 0, "Jacobians after the first cycle");
     // One linear map there and back: q at home repeats (fresh Jacobians creep by ≈ 4e-8 m
-    // a cycle on this path).
+    // a cycle on this path), up to where each run stops under its tolerance (1e-10 on the
+    // weighted residual): a run that stops at 9e-11 instead of 1e-11 lands 1.2e-11 m away.
     for q in &at_home[1..] {
         for (a, b) in q.iter().zip(&at_home[0]) {
             assert!(
-                (a - b).abs() < 1e-12,
+                (a - b).abs() < 1e-10,
                 "q at home {q:?} after {:?}",
                 at_home[0]
             );

@@ -1,13 +1,15 @@
 //! The redundant (9-DoF) IK along a 30-step path, least-norm and within the limits,
 //! against q computed by the solver before issue 19's speed work (`tests/data/
 //! redundant_path_psi0_q.txt`, from commit c305703): faster steps must land on the same
-//! solutions (q within 1e-9 m) and never leave the limits.
+//! solutions (q within 1e-9 m) and never leave the limits. It runs the reference's
+//! discretization (26 RK4 steps per leg).
 
 mod common;
 
 use common::design_path;
 use nalgebra::Vector3;
 use tdpcr::Tdpcr;
+use tdpcr::design::Integrator;
 use tdpcr::kinetostatics::Solver;
 use tdpcr::model::Pose;
 use tdpcr::redundancy::{Objective, Redundancy};
@@ -38,7 +40,11 @@ fn reference(mode: &str) -> Vec<Vec<f64>> {
 /// (within `tolerance` \[m\]); `reuse` as [`Solver::reuse_least_norm_factorization`].
 /// Returns the largest difference and the Jacobian evaluations of the 30 steps.
 fn follow(redundancy: Redundancy, mode: &str, reuse: bool, tolerance: f64) -> (f64, usize) {
-    let d = Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap();
+    let mut d = Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap();
+    // The reference's discretization (the default before 2026-11-26): this test guards the
+    // solver's steps, not the model's discretization.
+    d.leg.integrator = Integrator::Rk4;
+    d.leg.integration_steps = 26;
     let mut solver = Solver::new(&d).unwrap();
     solver.redundancy = redundancy;
     solver.reuse_least_norm_factorization = reuse;

@@ -1,4 +1,4 @@
-//! Fixed-step RK4 integration of one leg from base to tip, optionally with forward
+//! Fixed-step Runge–Kutta integration (the leg's [`Tableau`](super::tableau::Tableau)) of one leg from base to tip, optionally with forward
 //! sensitivities propagated through the same discrete steps (MODEL.md §5), so they are
 //! the exact derivatives of the discrete map.
 //!
@@ -14,8 +14,9 @@ use crate::error::SolveError;
 use crate::rod::lanes::{F64x4, Real, cross, dot, mat_vec};
 use crate::rod::leg_model::LegModel;
 pub use crate::rod::rhs::MAX_LEGS;
-use crate::rod::rhs::{RkEmit, RodState, Stage};
+use crate::rod::rhs::{FEEDBACK_ROWS, RkEmit, RodState, Stage};
 use crate::rod::slots::TendonSlots;
+use crate::rod::tableau::MAX_STAGES;
 pub use crate::rod::tangents::MAX_DIRECTIONS;
 use crate::rod::tangents::Tangents;
 use crate::spatial::Frame;
@@ -122,6 +123,9 @@ struct LegTangents {
     dy_next: Box<Tangents>,
     dy_stage: Box<Tangents>,
     dy_stage_next: Box<Tangents>,
+    /// The R, v, u rows of the stages' derivatives k_i a later stage reads
+    /// ([`RkEmit::kept`]).
+    kept: Vec<f64>,
 }
 
 impl LegTangents {
@@ -131,6 +135,7 @@ impl LegTangents {
             dy_next: Box::new(Tangents::zeros()),
             dy_stage: Box::new(Tangents::zeros()),
             dy_stage_next: Box::new(Tangents::zeros()),
+            kept: vec![0.0; MAX_STAGES * FEEDBACK_ROWS * MAX_DIRECTIONS],
         }
     }
 }
@@ -142,7 +147,9 @@ struct Buffers<T: Real> {
     y: RodState<T>,
     y_next: RodState<T>,
     y_stage: RodState<T>,
-    k: RodState<T>,
+    /// Each stage's derivative k_i (boxed: six states of four lanes on the stack overflowed
+    /// the rayon workers' stacks of a debug build).
+    ks: Box<[RodState<T>; MAX_STAGES]>,
     /// The tendons of each lane in slot order, with their tensions.
     tendons: TendonSlots<T>,
     /// Tangents of each lane's leg.
@@ -157,7 +164,7 @@ impl<T: Real> Buffers<T> {
             y: z,
             y_next: z,
             y_stage: z,
-            k: z,
+            ks: Box::new([z; MAX_STAGES]),
             tendons: TendonSlots::new(),
             tangents: (0..T::LANES).map(|_| LegTangents::new()).collect(),
         }
@@ -361,7 +368,12 @@ fn lane3<T: Real>(x: &Vector3<T>, i: usize) -> Vector3<f64> {
     x.map(|e| e.lane(i))
 }
 
-#[inline(always)]
+// Inlined (into the AVX2 copy) in optimized builds only: a debug build keeps every
+// temporary of every inlined call in its own stack slot, and the four direction counts
+// inlined into one function took a frame of 1 MB, which with a solver's call stack
+// overflowed the 2 MB stacks of rayon's workers.
+#[cfg_attr(not(debug_assertions), inline(always))]
+#[cfg_attr(debug_assertions, inline(never))]
 fn integrate_lanes<const N: usize, T: Real>(
     model: &LegModel,
     starts: &[LegStart],
@@ -403,7 +415,7 @@ fn integrate_lanes<const N: usize, T: Real>(
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
         for _ in 0..iv.steps {
-            rk4_step::<N, T>(model, buf, iv.active, h, nd, legs)?;
+            rk_step::<N, T>(model, buf, iv.active, h, nd, legs)?;
         }
         if iv.terminating != 0 {
             apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
@@ -468,11 +480,17 @@ fn integrate_lanes<const N: usize, T: Real>(
     Ok(())
 }
 
-/// One classical RK4 step of size `h` for the state and, for each of the first `legs`
-/// lanes, its `N` tangent lanes. The next state accumulates y + h Σ b_i k_i stage by
-/// stage; intermediate stages carry only R, v, u (p and s do not feed back).
+/// One step of size `h` of the leg's Runge–Kutta method ([`LegModel::tableau`]) for the
+/// state and, for each of the first `legs` lanes, its `N` tangent lanes (the same method
+/// applied to the variational equation with each stage's linearization, so the tangents
+/// are the exact derivatives of the discrete step). The ODE is autonomous within an
+/// interval, so the stages need no c. The step y + h Σ_i b_i k_i accumulates stage by
+/// stage; a stage input y + h Σ_j a_ij k_j carries only R, v, u (p and s do not feed
+/// back). The tangents' k are emitted straight into the sum and the next input (no
+/// buffer); only the rows R, v, u of a k that a later stage reads are kept, compactly
+/// (`N` lanes a row), and added to that stage's input in one pass.
 #[inline(always)]
-fn rk4_step<const N: usize, T: Real>(
+fn rk_step<const N: usize, T: Real>(
     model: &LegModel,
     buf: &mut Buffers<T>,
     active: u32,
@@ -481,41 +499,76 @@ fn rk4_step<const N: usize, T: Real>(
     legs: usize,
 ) -> Result<(), SolveError> {
     let nt = model.n_tendons;
-    // (weight b_i, offset c_(i+1) of the next stage)
-    const STAGES: [(f64, f64); 4] = [(1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0)];
-    for (i, &(weight, next)) in STAGES.iter().enumerate() {
-        let input = if i == 0 { &buf.y } else { &buf.y_stage };
-        buf.stage
-            .eval(model, input, &buf.tendons, active, &mut buf.k, N > 0)?;
-        let b = weight * h / 6.0;
+    let tab = model.tableau;
+    let Buffers {
+        stage,
+        y,
+        y_next,
+        y_stage,
+        ks,
+        tendons,
+        tangents,
+    } = buf;
+    for i in 0..tab.stages {
+        let input = if i == 0 { &*y } else { &*y_stage };
+        stage.eval(model, input, tendons, active, &mut ks[i], N > 0)?;
+        // The state: into the sum, and the next stage's input from the kept k_j.
+        let b = h * tab.b[i];
         if i == 0 {
-            buf.y_next.set_sum(&buf.y, T::splat(b), &buf.k, nt);
-        } else {
-            buf.y_next.axpy(T::splat(b), &buf.k, nt);
+            y_next.set_sum(y, T::splat(b), &ks[0], nt);
+        } else if b != 0.0 {
+            y_next.axpy(T::splat(b), &ks[i], nt);
         }
-        if i < 3 {
-            buf.y_stage.set_stage(&buf.y, T::splat(next * h), &buf.k);
+        // The next stage's input: its terms, and the coefficient of this stage's k in it.
+        let next = (i + 1 < tab.stages).then(|| (&tab.inputs[i + 1], h * tab.a[i + 1][i]));
+        if let Some((input, _)) = next {
+            let terms: [(f64, &RodState<T>); MAX_STAGES] =
+                std::array::from_fn(|t| (h * input.coefficient[t], &ks[input.stage[t]]));
+            y_stage.set_stage_input(y, &terms[..input.n]);
         }
         if N > 0 {
-            buf.stage.linearize(model, &buf.tendons, nd);
-            for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
-                let d_input = if i == 0 { &*tg.dy } else { &*tg.dy_stage };
+            stage.linearize(model, tendons, nd);
+            let block = FEEDBACK_ROWS * N;
+            let keep = tab.kept[i];
+            for (leg, tg) in tangents[..legs].iter_mut().enumerate() {
+                let LegTangents {
+                    dy,
+                    dy_next,
+                    dy_stage,
+                    dy_stage_next,
+                    kept,
+                } = tg;
+                let d = if i == 0 { &**dy } else { &**dy_stage };
+                let (earlier, this) = kept.split_at_mut(i * block);
                 let mut emit = RkEmit {
-                    base: &tg.dy,
-                    sum: &mut tg.dy_next,
+                    base: dy,
+                    sum: dy_next,
                     weight: b,
                     first: i == 0,
-                    next: (i < 3).then_some((&mut *tg.dy_stage_next, next * h)),
+                    next: next.map(|(_, c)| (&mut **dy_stage_next, c)),
+                    kept: keep.then(|| &mut this[..block]),
                 };
-                buf.stage
-                    .tangents::<N>(leg, model, &buf.tendons, d_input, &mut emit);
-                std::mem::swap(&mut tg.dy_stage, &mut tg.dy_stage_next);
+                stage.tangents::<N>(leg, model, tendons, d, &mut emit);
+                // The next input's terms of earlier stages (RK4 has none).
+                let earlier_terms = next.map_or(0, |_| tab.earlier[i + 1].n);
+                if earlier_terms > 0 {
+                    let from = &tab.earlier[i + 1];
+                    let terms: [(f64, &[f64]); MAX_STAGES] = std::array::from_fn(|t| {
+                        let j = from.stage[t];
+                        (
+                            h * from.coefficient[t],
+                            &earlier[j * block..(j + 1) * block],
+                        )
+                    });
+                    dy_stage_next.add_kept::<N>(&terms[..earlier_terms]);
+                }
+                std::mem::swap(dy_stage, dy_stage_next);
             }
         }
     }
-    std::mem::swap(&mut buf.y, &mut buf.y_next);
+    std::mem::swap(y, y_next);
     if N > 0 {
-        for tg in &mut buf.tangents[..legs] {
+        for tg in &mut tangents[..legs] {
             std::mem::swap(&mut tg.dy, &mut tg.dy_next);
         }
     }
@@ -536,7 +589,7 @@ fn apply_tendon_ends<const N: usize, T: Real>(
     // Pre-jump tangents (dy_stage is free between steps).
     if N > 0 {
         for tg in &mut buf.tangents[..legs] {
-            tg.dy_stage.set_stage::<N>(&tg.dy, 0.0, &tg.dy);
+            tg.dy_stage.copy_feedback::<N>(&tg.dy);
         }
     }
     let inv_se = model.k_se.map(|x| 1.0 / x);

@@ -3,6 +3,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::design::{Leg, MAX_TENDONS};
+use crate::rod::tableau::{Tableau, tableau};
 
 /// A piece of the leg between two consecutive breakpoints (disks or tendon ends).
 #[derive(Debug, Clone, PartialEq)]
@@ -11,7 +12,7 @@ pub struct Interval {
     pub start: f64,
     /// Arc length at the end \[m\].
     pub end: f64,
-    /// Fixed RK4 steps on this interval.
+    /// Fixed Runge–Kutta steps on this interval.
     pub steps: usize,
     /// Bit k set: tendon k runs through this interval.
     pub active: u32,
@@ -46,6 +47,8 @@ pub struct LegModel {
     pub weight_per_length: Vector3<f64>,
     /// Integration grid.
     pub intervals: Vec<Interval>,
+    /// The Runge–Kutta method of every step.
+    pub tableau: &'static Tableau,
     /// Number of disks.
     pub n_disks: usize,
     /// Disk radius \[m\].
@@ -82,6 +85,7 @@ impl LegModel {
             tendon_stiffness: leg.tendon_stiffness,
             weight_per_length: gravity * (total_mass / leg.length),
             intervals: build_intervals(leg),
+            tableau: tableau(leg.integrator),
             n_disks: leg.disks.count,
             disk_radius: leg.disks.radius,
         }

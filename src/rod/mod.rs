@@ -7,6 +7,7 @@ pub mod ldlt6;
 pub mod leg_model;
 pub mod rhs;
 pub mod slots;
+pub mod tableau;
 pub mod tangents;
 pub mod tendon;
 

@@ -69,13 +69,24 @@ impl<T: Real> RodState<T> {
         }
     }
 
-    /// self = y + a·k for the parts that feed back into the right-hand side (R, v, u):
-    /// an intermediate RK stage needs no p or s.
+    /// self = y + Σ_j c_j k_j over R, v, u, the parts that feed back into the right-hand
+    /// side (a stage input: p and s are not needed), the terms in order, a product then a
+    /// sum each (no fused multiply–add).
     #[inline(always)]
-    pub fn set_stage(&mut self, y: &Self, a: T, k: &Self) {
-        self.r = y.r + k.r * a;
-        self.v = y.v + k.v * a;
-        self.u = y.u + k.u * a;
+    pub fn set_stage_input(&mut self, y: &Self, terms: &[(f64, &Self)]) {
+        // One component at a time: R, v and u together would not fit in the registers.
+        macro_rules! combine {
+            ($field:ident) => {{
+                let mut acc = y.$field;
+                for &(c, k) in terms {
+                    acc += k.$field * T::splat(c);
+                }
+                self.$field = acc;
+            }};
+        }
+        combine!(r);
+        combine!(v);
+        combine!(u);
     }
 
     /// self = y + a·k, over the first `nt` tendon lengths (the rest copied from y): as
@@ -417,8 +428,8 @@ impl<T: Real> Stage<T> {
 
     /// Propagates the tangents of leg (lane) `leg` through this stage at the last
     /// [`Stage::linearize`]: the derivative k of the first `N` lanes of `d` (only its R, v,
-    /// u lanes are read) is emitted straight into the RK sums of `step` (no intermediate
-    /// buffer).
+    /// u lanes are read) is emitted straight into the step's sum and the kept rows of
+    /// `step` (no intermediate buffer).
     #[inline(always)]
     pub fn tangents<const N: usize>(
         &self,
@@ -451,11 +462,10 @@ impl<T: Real> Stage<T> {
                 b[c][j] = fma(d.r[3 * c + 2][j], f.z, acc);
             }
         }
-        // The tendon lengths read dv, du before anything is emitted.
-        for k in 0..model.n_tendons {
+        for slot in 0..model.n_tendons {
             let mut ds = [0.0; N];
-            if self.active & (1 << k) != 0 {
-                let (t, rt) = (lane(&self.tendons[k].t), lane(&self.tendons[k].rt));
+            if self.active & (1 << slot) != 0 {
+                let (t, rt) = (lane(&self.tendons[slot].t), lane(&self.tendons[slot].rt));
                 for j in 0..N {
                     let acc = fma(t.y, d.v[1][j], t.x * d.v[0][j]);
                     let acc = fma(t.z, d.v[2][j], acc);
@@ -464,7 +474,7 @@ impl<T: Real> Stage<T> {
                     ds[j] = fma(rt.z, d.u[2][j], acc);
                 }
             }
-            step.passive(Row::S(tendons.tendon[leg][k]), &ds);
+            step.passive(Row::S(tendons.tendon[leg][slot]), &ds);
         }
         let (rot, v, u) = (self.r.map(|e| e.lane(leg)), lane(&self.v), lane(&self.u));
         for row in 0..3 {
@@ -540,9 +550,11 @@ impl Tangents {
     }
 }
 
-/// Where one RK stage's tangent derivative k goes: the step's sum
-/// `sum = base + a·k` (first stage) or `sum += a·k`, and, for R, v, u, the next stage's
-/// input `next = base + c·k`.
+/// Where one RK stage's tangent derivative k goes: streamed into the step's sum
+/// (`sum = base + w·k` at the first stage, `sum += w·k` after) and, for the rows that feed
+/// back (R, v, u), into the next stage's input (`next = base + c·k`, the input's term of
+/// this stage) and, if a later stage reads them, kept
+/// ([`Tangents::add_kept`]).
 pub struct RkEmit<'a> {
     /// Tangents at the start of the step.
     pub base: &'a Tangents,
@@ -552,12 +564,20 @@ pub struct RkEmit<'a> {
     pub weight: f64,
     /// Whether this is the first stage (the sum starts from `base`).
     pub first: bool,
-    /// The next stage's input and its offset h c_(i+1), unless this is the last stage.
+    /// The next stage's input and this stage's coefficient in it, h a_(i+1, i), unless
+    /// this is the last stage.
     pub next: Option<(&'a mut Tangents, f64)>,
+    /// Where this stage's k is kept, if a stage after the next reads it: the
+    /// [`FEEDBACK_ROWS`] rows R (9), v (3), u (3), `N` lanes each, row after row.
+    pub kept: Option<&'a mut [f64]>,
 }
 
+/// Rows of the tangents that feed back into the right-hand side: R, v, u.
+pub const FEEDBACK_ROWS: usize = 15;
+
 impl RkEmit<'_> {
-    /// A row that feeds back (R, v, u): into the sum and the next stage.
+    /// A row that feeds back (R, v, u): into the sum, the next stage's input and the kept
+    /// rows.
     #[inline(always)]
     fn active<const N: usize>(&mut self, row: Row, k: &[f64; N]) {
         self.passive(row, k);
@@ -566,6 +586,15 @@ impl RkEmit<'_> {
             for j in 0..N {
                 out[j] = fma(*c, k[j], base[j]);
             }
+        }
+        if let Some(kept) = self.kept.as_deref_mut() {
+            let index = match row {
+                Row::R(c) => c,
+                Row::V(c) => 9 + c,
+                Row::U(c) => 12 + c,
+                Row::P(_) | Row::S(_) => return,
+            };
+            kept[index * N..(index + 1) * N].copy_from_slice(k);
         }
     }
 
@@ -579,7 +608,7 @@ impl RkEmit<'_> {
             for j in 0..N {
                 out[j] = fma(a, k[j], base[j]);
             }
-        } else {
+        } else if a != 0.0 {
             for j in 0..N {
                 out[j] = fma(a, k[j], out[j]);
             }

@@ -5,6 +5,8 @@
 //! beyond the directions in use stay zero.
 
 use crate::design::MAX_TENDONS;
+use crate::rod::lanes::fma;
+use crate::rod::rhs::FEEDBACK_ROWS;
 
 /// Most sensitivity directions: u(0), v(0) and one tension per tendon.
 pub const MAX_DIRECTIONS: usize = 6 + MAX_TENDONS;
@@ -63,51 +65,41 @@ impl Tangents {
             .chain(self.s[..nt].iter_mut())
     }
 
-    /// self = y + a·k over every component (the first `N` lanes, `nt` tendon lengths).
-    #[inline]
-    pub fn set_sum<const N: usize>(&mut self, y: &Self, a: f64, k: &Self, nt: usize) {
-        let pairs = |d: &mut [Lanes], s: &[Lanes], t: &[Lanes]| {
-            for ((d, s), t) in d.iter_mut().zip(s).zip(t) {
+    /// Adds Σ_j c_j k_j to the first `N` lanes of the R, v, u rows (the terms in order,
+    /// fused multiply–adds): the earlier stages' terms of a stage input. Each k_j is given
+    /// by its [`FEEDBACK_ROWS`] rows of `N` lanes, row after row (as
+    /// [`RkEmit`](crate::rod::rhs::RkEmit) keeps them).
+    #[inline(always)]
+    pub fn add_kept<const N: usize>(&mut self, terms: &[(f64, &[f64])]) {
+        for index in 0..FEEDBACK_ROWS {
+            let out = match index {
+                0..9 => &mut self.r[index],
+                9..12 => &mut self.v[index - 9],
+                _ => &mut self.u[index - 12],
+            };
+            let mut acc = [0.0; N];
+            acc.copy_from_slice(&out[..N]);
+            for &(c, k) in terms {
+                let k = &k[index * N..(index + 1) * N];
                 for j in 0..N {
-                    d[j] = s[j] + a * t[j];
+                    acc[j] = fma(c, k[j], acc[j]);
                 }
             }
-        };
-        pairs(&mut self.p, &y.p, &k.p);
-        pairs(&mut self.s[..nt], &y.s[..nt], &k.s[..nt]);
-        self.set_stage::<N>(y, a, k);
+            out[..N].copy_from_slice(&acc);
+        }
     }
 
-    /// self = y + a·k for the components that feed back into the right-hand side (R, v, u):
-    /// an intermediate RK stage needs no p or s.
-    #[inline]
-    pub fn set_stage<const N: usize>(&mut self, y: &Self, a: f64, k: &Self) {
-        let pairs = |d: &mut [Lanes], s: &[Lanes], t: &[Lanes]| {
-            for ((d, s), t) in d.iter_mut().zip(s).zip(t) {
-                for j in 0..N {
-                    d[j] = s[j] + a * t[j];
-                }
-            }
-        };
-        pairs(&mut self.r, &y.r, &k.r);
-        pairs(&mut self.v, &y.v, &k.v);
-        pairs(&mut self.u, &y.u, &k.u);
-    }
-
-    /// self += a·k over every component (the first `N` lanes, `nt` tendon lengths).
-    #[inline]
-    pub fn axpy<const N: usize>(&mut self, a: f64, k: &Self, nt: usize) {
-        let add = |d: &mut [Lanes], s: &[Lanes]| {
-            for (d, s) in d.iter_mut().zip(s) {
-                for j in 0..N {
-                    d[j] += a * s[j];
-                }
-            }
-        };
-        add(&mut self.p, &k.p);
-        add(&mut self.r, &k.r);
-        add(&mut self.v, &k.v);
-        add(&mut self.u, &k.u);
-        add(&mut self.s[..nt], &k.s[..nt]);
+    /// Copies the first `N` lanes of the R, v, u rows of `y`.
+    #[inline(always)]
+    pub fn copy_feedback<const N: usize>(&mut self, y: &Self) {
+        for (out, y) in self
+            .r
+            .iter_mut()
+            .chain(&mut self.v)
+            .chain(&mut self.u)
+            .zip(y.r.iter().chain(&y.v).chain(&y.u))
+        {
+            out[..N].copy_from_slice(&y[..N]);
+        }
     }
 }

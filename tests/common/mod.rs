@@ -41,6 +41,7 @@ pub fn bare_leg() -> Leg {
         tendon_stiffness: 1000.0,
         tendons: vec![],
         integration_steps: tdpcr::design::DEFAULT_INTEGRATION_STEPS,
+        integrator: tdpcr::design::Integrator::default(),
     }
 }
 
