@@ -16,7 +16,7 @@ mod common;
 use common::{Rng, central_difference, design_path};
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use tdpcr::Tdcr;
-use tdpcr::design::{MAX_TENDONS, Tendon};
+use tdpcr::design::{Integrator, MAX_TENDONS, Tendon};
 use tdpcr::rod::{
     Frame, LegEnd, LegModel, LegScratch, LegSensitivities, LegStart, integrate_leg,
     integrate_leg_with_sensitivities,
@@ -217,8 +217,17 @@ fn leg_sensitivities_match_central_differences_at_random_states() {
         robots.push(random_robot(&mut rng, n));
     }
     let mut overall: f64 = 0.0;
-    for robot in &robots {
-        let model = model_of(robot);
+    // Each design with both integration methods (the tangents go through each method's
+    // stage sums).
+    let both = robots.iter().flat_map(|robot| {
+        [Integrator::Rk5, Integrator::Rk4].map(|integrator| {
+            let mut robot = robot.clone();
+            robot.leg.integrator = integrator;
+            robot
+        })
+    });
+    for robot in both {
+        let model = model_of(&robot);
         for _ in 0..6 {
             let start = random_start(&mut rng, model.n_tendons);
             let (err, at) = worst_leg_error(&model, &start);
