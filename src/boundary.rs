@@ -90,6 +90,8 @@ pub struct BoundaryScratch {
     base: DVector<f64>,
     /// Every leg's frames at its disks from the last exact evaluation, when recording.
     shapes: Option<Box<[LegShape; 3]>>,
+    /// Whether exact evaluations record `shapes` (kept allocated while paused).
+    recording: bool,
 }
 
 impl BoundaryScratch {
@@ -115,24 +117,29 @@ impl BoundaryScratch {
             trial: DVector::zeros(model.n_residuals()),
             base: DVector::zeros(model.n_residuals()),
             shapes: None,
+            recording: false,
         }
     }
 
     /// Starts (or stops) recording every leg's frames at its disks in each exact
-    /// evaluation ([`boundary_derivatives`]), at a cost of about 0.1 % of it: the workspace
-    /// sweep checks collisions on the frames of its per-point analysis instead of
-    /// integrating the legs once more.
+    /// evaluation ([`boundary_derivatives`]), at the cost of a partial step (primal only)
+    /// to each disk inside an integration step, about one residual evaluation for the
+    /// bundled 13-disk legs: the workspace sweep checks collisions on the frames of its
+    /// per-point analysis instead of integrating the legs once more.
+    /// Turning it off keeps the buffers, so switching it on and off around single
+    /// evaluations allocates nothing.
     pub fn record_shapes(&mut self, model: &Model, on: bool) {
-        self.shapes = on.then(|| {
+        if on && self.shapes.is_none() {
             let shape = || LegShape::with_capacity(model.leg.n_disks);
-            Box::new([shape(), shape(), shape()])
-        });
+            self.shapes = Some(Box::new([shape(), shape(), shape()]));
+        }
+        self.recording = on;
     }
 
     /// The legs' frames at their disks from the last [`boundary_derivatives`], when
     /// recording ([`BoundaryScratch::record_shapes`]).
     pub fn shapes(&self) -> Option<&[LegShape; 3]> {
-        self.shapes.as_deref()
+        self.shapes.as_deref().filter(|_| self.recording)
     }
 
     /// The leg tips of the last evaluation.
@@ -278,7 +285,10 @@ pub fn boundary_derivatives(
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
     let sens = Some(&mut sc.sens[..]);
-    let shapes = sc.shapes.as_deref_mut().map(|s| &mut s[..]);
+    let shapes = match &mut sc.shapes {
+        Some(s) if sc.recording => Some(&mut s[..]),
+        _ => None,
+    };
     integrate_legs(
         &model.leg,
         &sc.starts,

@@ -17,20 +17,21 @@ use crate::error::{DesignError, Violations};
 /// Most tendons one leg may carry (sizes the allocation-free integrator buffers).
 pub const MAX_TENDONS: usize = 12;
 
-/// Most spacer disks one leg may carry. Every interval between disks takes at least one
-/// integration step, so the disk count bounds the cost of each leg integration from
-/// below: 1000 disks made a solve about 40x dearer than the bundled 13-disk designs with
-/// 26 RK4 steps (measured; with the fifth-order default's 13 steps the right-hand sides
-/// per leg are 6000 against 78), and a count of 100 000 ran for minutes without a word.
+/// Most spacer disks one leg may carry. Disks are not integration step boundaries, but
+/// an integration that records the legs' shapes takes a partial step to each disk inside
+/// a step (6 right-hand sides each with the default method), so the disk count bounds
+/// the cost of those integrations (the workspace sweep's and the design search's exact
+/// Jacobians, shape outputs) from below; a count of 100 000 ran for minutes without a word
+/// when disks were step boundaries.
 pub const MAX_DISKS: usize = 1000;
 
 /// Longest rod length accepted \[m\]: far beyond any continuum robot (the bundled designs'
 /// legs are 0.145-0.2 m); longer rods only diverge.
 pub const MAX_LEG_LENGTH: f64 = 10.0;
 
-/// Default number of fixed integration steps over the whole leg length (one per disk
-/// interval of the bundled 13-disk legs, with the default [`Integrator::Rk5`]).
-pub const DEFAULT_INTEGRATION_STEPS: usize = 13;
+/// Default number of fixed integration steps over the whole leg length (with the default
+/// [`Integrator::Rk5`]; MODEL.md §5).
+pub const DEFAULT_INTEGRATION_STEPS: usize = 10;
 
 /// The fixed-step explicit Runge–Kutta method of the leg integration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -38,8 +39,8 @@ pub enum Integrator {
     /// The classical fourth-order method (4 right-hand sides per step); with 26 steps, the
     /// default before 2026-11-26.
     Rk4,
-    /// Butcher's fifth-order method (6 right-hand sides per step): at 13 steps 5–10× more
-    /// accurate than `Rk4` at 26, with 78 instead of 104 right-hand sides (MODEL.md §5).
+    /// Butcher's fifth-order method (6 right-hand sides per step): at 10 steps about as
+    /// accurate as `Rk4` at 26, with 60 instead of 104 right-hand sides (MODEL.md §5).
     #[default]
     Rk5,
 }
@@ -248,9 +249,7 @@ impl Leg {
             v.push(
                 f("disks.count"),
                 self.disks.count,
-                &format!(
-                    "in 1..={MAX_DISKS} (each interval between disks costs an integration step)"
-                ),
+                &format!("in 1..={MAX_DISKS} (each disk costs a partial integration step)"),
             );
         }
         check_non_negative(v, &f("disks.mass"), self.disks.mass, "kg");

@@ -45,16 +45,18 @@ fn sideways(force: f64) -> TipWrench {
 }
 
 #[test]
-fn a_half_metre_rod_under_tens_of_newtons_converges_at_its_floor() {
+fn a_half_metre_rod_under_a_hundred_newtons_converges_at_its_floor() {
     let robot = half_metre_rod();
     let control = TendonControl::Tension(vec![20.0, 0.0]);
     let mut solver = TdcrSolver::new(&robot);
-    let floor = solver.solve(&control, &sideways(50.0), None).unwrap();
+    // The floor is the round-off of the integration: with 10 fifth-order steps it lies at
+    // 9e-11 (below the tolerance) under 50 N, at 1.8e-10 under 100 N.
+    let floor = solver.solve(&control, &sideways(100.0), None).unwrap();
     assert!(floor.report.converged_at_floor, "{:?}", floor.report);
     assert!(floor.report.residual_norm > solver.settings.tolerance);
     let mut loose = TdcrSolver::new(&robot);
     loose.settings.tolerance = 1e-9;
-    let reference = loose.solve(&control, &sideways(50.0), None).unwrap();
+    let reference = loose.solve(&control, &sideways(100.0), None).unwrap();
     assert!(!reference.report.converged_at_floor);
     let gap = (floor.tip.position - reference.tip.position).norm();
     assert!(gap <= 1e-9 * robot.leg.length, "tip gap {gap:.2e} m");

@@ -412,17 +412,47 @@ fn integrate_lanes<const N: usize, T: Real>(
             shape.push(0.0, &buf.y, leg);
         }
     }
+    // Disks are not step boundaries: a disk inside a step gets the state of a partial step
+    // of the same method from the step's start; one at a step's end that step's state
+    // (after the jumps of tendons ending there).
+    let tol = 1e-12 * model.length;
+    let mut disk = 1;
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
-        for _ in 0..iv.steps {
+        for step in 0..iv.steps {
+            let last = step + 1 == iv.steps;
+            let (from, to) = (
+                iv.start + step as f64 * h,
+                if last {
+                    iv.end
+                } else {
+                    iv.start + (step + 1) as f64 * h
+                },
+            );
+            if let Some(shapes) = shapes.as_deref_mut() {
+                while disk <= model.n_disks && model.disk_arc(disk) < to - tol {
+                    let arc = model.disk_arc(disk);
+                    // The partial step leaves its state in y and the step's start in
+                    // y_next; swapped back after recording.
+                    rk_step::<0, T>(model, buf, iv.active, arc - from, 0, legs)?;
+                    for (leg, shape) in shapes.iter_mut().enumerate() {
+                        shape.push(arc, &buf.y, leg);
+                    }
+                    std::mem::swap(&mut buf.y, &mut buf.y_next);
+                    disk += 1;
+                }
+            }
             rk_step::<N, T>(model, buf, iv.active, h, nd, legs)?;
-        }
-        if iv.terminating != 0 {
-            apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
-        }
-        if let (Some(shapes), Some(_)) = (shapes.as_deref_mut(), iv.disk) {
-            for (leg, shape) in shapes.iter_mut().enumerate() {
-                shape.push(iv.end, &buf.y, leg);
+            if last && iv.terminating != 0 {
+                apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
+            }
+            if let Some(shapes) = shapes.as_deref_mut() {
+                while disk <= model.n_disks && model.disk_arc(disk) <= to + tol {
+                    for (leg, shape) in shapes.iter_mut().enumerate() {
+                        shape.push(model.disk_arc(disk), &buf.y, leg);
+                    }
+                    disk += 1;
+                }
             }
         }
     }
@@ -645,20 +675,24 @@ mod tests {
         LegModel::new(&leg, Vector3::new(0.5, 0.0, -9.81))
     }
 
-    /// The AVX2 path (where the CPU has it) and the portable path give bitwise equal tips
-    /// and sensitivities: the lane count and instruction set change nothing numerically.
-    #[test]
-    fn every_code_path_gives_bitwise_identical_results() {
-        let model = leg();
+    /// A start that bends the leg strongly, two of its tendons taut.
+    fn bent_start() -> LegStart {
         let mut tensions = [0.0; MAX_TENDONS];
         tensions[0] = 3.2;
         tensions[2] = 0.4;
-        let start = LegStart {
+        LegStart {
             base: Frame::identity(),
             u0: Vector3::new(0.3, 6.0, -0.1),
             v0: Vector3::new(1e-5, 0.0, 0.99992),
             tensions,
-        };
+        }
+    }
+
+    /// The AVX2 path (where the CPU has it) and the portable path give bitwise equal tips
+    /// and sensitivities: the lane count and instruction set change nothing numerically.
+    #[test]
+    fn every_code_path_gives_bitwise_identical_results() {
+        let (model, start) = (leg(), bent_start());
         let run = |portable: bool, directions: usize| {
             let mut sc = LegScratch::new();
             let mut end = LegEnd::zeros();
@@ -734,6 +768,47 @@ mod tests {
                     assert_eq!(sens[i].d, d, "leg {i}, {directions} directions");
                 }
             }
+        }
+    }
+
+    /// The frames at the disks come from partial steps of the same method: the shape has
+    /// a frame at the base and at each disk, the last one is the tip itself, the tip and
+    /// its sensitivities do not depend on whether a shape is recorded, and every disk is
+    /// within 1e-7 L of a 16× finer integration's (a tendon ends at 0.08 m, an interval
+    /// end, and the disks at 11.15 mm spacing fall between the steps of 13.0–13.3 mm).
+    #[test]
+    fn disk_frames_come_from_partial_steps_as_accurate_as_the_steps() {
+        let (model, start) = (leg(), bent_start());
+        let run = |model: &LegModel, shape: bool| {
+            let mut sc = LegScratch::new();
+            let mut end = LegEnd::zeros();
+            let mut sens = LegSensitivities::new(9);
+            let mut s = LegShape::with_capacity(model.n_disks);
+            let shape = shape.then_some(&mut s);
+            integrate_leg_with_sensitivities(model, &start, &mut sc, &mut end, &mut sens, shape)
+                .unwrap();
+            (end, sens.d, s)
+        };
+        let (end, d, shape) = run(&model, true);
+        let (bare_end, bare_d, _) = run(&model, false);
+        assert_eq!((end, d), (bare_end, bare_d));
+        let arcs: Vec<f64> = (0..=model.n_disks)
+            .map(|j| if j == 0 { 0.0 } else { model.disk_arc(j) })
+            .collect();
+        assert_eq!(shape.arcs, arcs);
+        assert_eq!(shape.positions.last(), Some(&end.p));
+        assert_eq!(shape.rotations.last(), Some(&end.r));
+        let mut fine = model.clone();
+        for iv in &mut fine.intervals {
+            iv.steps *= 16;
+        }
+        let (_, _, reference) = run(&fine, true);
+        for (j, (p, q)) in shape.positions.iter().zip(&reference.positions).enumerate() {
+            let error = (p - q).norm();
+            assert!(
+                error < 1e-7 * model.length,
+                "disk {j}: {error:.2e} m from the fine integration"
+            );
         }
     }
 }

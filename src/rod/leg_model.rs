@@ -5,7 +5,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::design::{Leg, MAX_TENDONS};
 use crate::rod::tableau::{Tableau, tableau};
 
-/// A piece of the leg between two consecutive breakpoints (disks or tendon ends).
+/// A piece of the leg between two consecutive breakpoints (tendon ends, L).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Interval {
     /// Arc length at the start \[m\].
@@ -18,8 +18,6 @@ pub struct Interval {
     pub active: u32,
     /// Bit k set: tendon k is attached at `end` (its force/moment jump is applied there).
     pub terminating: u32,
-    /// Index of the disk at `end` (1-based count), if there is one.
-    pub disk: Option<usize>,
 }
 
 /// One leg's stiffness, tendon routing and integration grid (MODEL.md §2), SI units.
@@ -101,6 +99,11 @@ impl LegModel {
         self.k_se.z
     }
 
+    /// Arc length of disk `j` (1-based: disk n_disks is at L) \[m\].
+    pub fn disk_arc(&self, j: usize) -> f64 {
+        self.length * j as f64 / self.n_disks as f64
+    }
+
     /// Largest tendon offset \[m\] (0 without tendons).
     pub fn max_offset(&self) -> f64 {
         self.tendon_offsets[..self.n_tendons]
@@ -110,22 +113,22 @@ impl LegModel {
     }
 }
 
-/// Breakpoints are the disks and the tendon ends; steps are spread in proportion to length.
+/// Breakpoints are the tendon ends (where the strains jump) and L; steps are spread in
+/// proportion to length, at least one per interval. Disks are not breakpoints: their
+/// frames come from partial steps ([`LegModel::disk_arc`]).
 fn build_intervals(leg: &Leg) -> Vec<Interval> {
     let len = leg.length;
     let tol = 1e-12 * len;
-    let mut points: Vec<(f64, Option<usize>)> = (1..=leg.disks.count)
-        .map(|j| (len * j as f64 / leg.disks.count as f64, Some(j)))
-        .collect();
+    let mut points = vec![len];
     for t in &leg.tendons {
-        if points.iter().all(|(s, _)| (s - t.end).abs() > tol) {
-            points.push((t.end, None));
+        if points.iter().all(|s| (s - t.end).abs() > tol) {
+            points.push(t.end);
         }
     }
-    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    points.sort_by(f64::total_cmp);
     let mut intervals = Vec::with_capacity(points.len());
     let mut start = 0.0;
-    for (end, disk) in points {
+    for end in points {
         let mut active = 0u32;
         let mut terminating = 0u32;
         for (k, t) in leg.tendons.iter().enumerate() {
@@ -145,7 +148,6 @@ fn build_intervals(leg: &Leg) -> Vec<Interval> {
             steps,
             active,
             terminating,
-            disk,
         });
         start = end;
     }

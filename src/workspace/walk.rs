@@ -105,7 +105,6 @@ impl Worker {
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
         solver.redundancy = settings.redundancy.clone();
-        solver.record_shapes(true);
         solver.one_sided_kinks = settings.one_sided_kinks;
         let collisions = CollisionChecker::new(solver.model());
         let jacobians = JacobianHistory::new(solver.model());
@@ -135,7 +134,16 @@ impl Worker {
         if !model.within_limits(&state.q) {
             return Err(End::Limits);
         }
-        let metrics = match point_metrics(&mut self.solver, &state, &self.analysis) {
+        // Only the analysis records the legs' frames (the partial steps to the disks cost
+        // about a residual evaluation; Newton's Jacobians need no frames).
+        self.solver.record_shapes(true);
+        let metrics = point_metrics(&mut self.solver, &state, &self.analysis);
+        let collision = self
+            .solver
+            .shapes()
+            .map(|shapes| first_collision_of(model, &state, shapes).is_some());
+        self.solver.record_shapes(false);
+        let metrics = match metrics {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
         };
@@ -144,8 +152,8 @@ impl Worker {
         self.jacobians.push(model, &self.solver, &state);
         self.jacobians.seed(&mut self.solver);
         // The analysis integrated the legs at `state` and kept their frames.
-        let collision = match self.solver.shapes() {
-            Some(shapes) => first_collision_of(model, &state, shapes).is_some(),
+        let collision = match collision {
+            Some(c) => c,
             None => match self.collisions.check(model, &state) {
                 Ok(c) => c.is_some(),
                 Err(e) => return Err(self.end_of(e.into())),

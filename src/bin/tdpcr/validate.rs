@@ -27,10 +27,11 @@ pub fn run(args: &ValidateArgs) -> Result<(), Error> {
     } else {
         let r = Tdcr::from_ron_str(&text, &source)?;
         println!(
-            "{source}: valid TDCR, {} tendons, length {} m, {} integration steps",
+            "{source}: valid TDCR, {} tendons, length {} m, {} integration steps ({:?})",
             r.leg.tendons.len(),
             r.leg.length,
-            r.leg.integration_steps
+            r.leg.integration_steps,
+            r.leg.integrator
         );
     }
     Ok(())
