@@ -1,6 +1,7 @@
-//! Fixed-step Runge–Kutta integration (the leg's [`Tableau`](super::tableau::Tableau)) of one leg from base to tip, optionally with forward
-//! sensitivities propagated through the same discrete steps (MODEL.md §5), so they are
-//! the exact derivatives of the discrete map.
+//! Fixed-step Runge–Kutta integration (the leg's
+//! [`Tableau`](super::tableau::Tableau)) of one leg from base to tip, optionally with
+//! forward sensitivities propagated through the same discrete steps (MODEL.md §5), so
+//! they are the exact derivatives of the discrete map.
 //!
 //! Sensitivity directions, in this order: u(0) (3), v(0) (3), then the tension τ_k of
 //! each tendon (n_t). Tendon ends apply the force/moment jumps of MODEL.md §2; the tip
@@ -147,8 +148,7 @@ struct Buffers<T: Real> {
     y: RodState<T>,
     y_next: RodState<T>,
     y_stage: RodState<T>,
-    /// Each stage's derivative k_i (boxed: six states of four lanes on the stack overflowed
-    /// the rayon workers' stacks of a debug build).
+    /// Each stage's derivative k_i (boxed: 5.8 kB for four lanes, kept off the stack).
     ks: Box<[RodState<T>; MAX_STAGES]>,
     /// The tendons of each lane in slot order, with their tensions.
     tendons: TendonSlots<T>,

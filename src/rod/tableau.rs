@@ -78,8 +78,8 @@ impl Terms {
     }
 
     /// The terms, (j, c_j).
-    #[inline(always)]
-    pub fn iter(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+    #[cfg(test)]
+    fn iter(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
         self.stage[..self.n]
             .iter()
             .copied()
