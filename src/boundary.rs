@@ -92,6 +92,9 @@ pub struct BoundaryScratch {
     shapes: Option<Box<[LegShape; 3]>>,
     /// Whether exact evaluations record `shapes` (kept allocated while paused).
     recording: bool,
+    /// Evaluations so far: [`boundary_residual`] calls, [`boundary_derivatives`] calls
+    /// (the tests' independent count of a solve's work).
+    evaluations: [usize; 2],
 }
 
 impl BoundaryScratch {
@@ -118,7 +121,16 @@ impl BoundaryScratch {
             base: DVector::zeros(model.n_residuals()),
             shapes: None,
             recording: false,
+            evaluations: [0; 2],
         }
+    }
+
+    /// How many residuals ([`boundary_residual`]) and exact Jacobians
+    /// ([`boundary_derivatives`]) these buffers have evaluated (read by the tests that
+    /// check the solvers' reports).
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) fn evaluations(&self) -> [usize; 2] {
+        self.evaluations
     }
 
     /// Starts (or stops) recording every leg's frames at its disks in each exact
@@ -252,6 +264,7 @@ pub fn boundary_residual(
     p: &BoundaryPoint,
     r: &mut DVector<f64>,
 ) -> Result<(), SolveError> {
+    sc.evaluations[0] += 1;
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
@@ -279,6 +292,7 @@ pub fn boundary_derivatives(
     r: &mut DVector<f64>,
     jac: &mut BoundaryJacobians,
 ) -> Result<(), SolveError> {
+    sc.evaluations[1] += 1;
     let nt = model.n_tendons();
     let nu = model.n_leg_unknowns();
     for i in 0..3 {

@@ -381,6 +381,34 @@ impl NewtonReport {
         self.residual_evaluations += other.residual_evaluations;
         self.jacobian_evaluations += other.jacobian_evaluations;
     }
+
+    /// Counts one evaluation of the system: the residual, with the Jacobian if
+    /// `with_jacobian` (a system's own tally of the work a run asked of it).
+    pub(crate) fn count_evaluation(&mut self, with_jacobian: bool) {
+        self.residual_evaluations += 1;
+        self.jacobian_evaluations += usize::from(with_jacobian);
+    }
+
+    /// The work of a run that ended in `error`: its iterations (from the error) and the
+    /// evaluations in `evaluated` (the system's tally of that run); the residual norm
+    /// is the error's, NaN if it has none.
+    pub(crate) fn of_failed_run(error: &SolveError, evaluated: &NewtonReport) -> Self {
+        let (iterations, residual_norm) = match error {
+            SolveError::NotConverged {
+                iterations,
+                residual_norm,
+                ..
+            } => (*iterations, *residual_norm),
+            _ => (0, f64::NAN),
+        };
+        Self {
+            iterations,
+            residual_evaluations: evaluated.residual_evaluations,
+            jacobian_evaluations: evaluated.jacobian_evaluations,
+            residual_norm,
+            converged_at_floor: false,
+        }
+    }
 }
 
 /// Buffers for [`solve`] on systems of one size.

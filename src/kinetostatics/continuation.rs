@@ -126,7 +126,10 @@ fn ramp_steps(
         },
     };
     let mut state = start;
+    // The converged steps' work; that of the steps that failed is in the solver's tally
+    // of failed runs (counted here too for the error of a stalled continuation).
     let mut total = NewtonReport::none();
+    let mut failed_iterations = 0;
     let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
     while lambda < 1.0 {
         let next = (lambda + step).min(1.0);
@@ -167,7 +170,7 @@ fn ramp_steps(
             }
             Err(e) => {
                 if let SolveError::NotConverged { iterations, .. } = e {
-                    total.iterations += iterations;
+                    failed_iterations += iterations;
                 }
                 step /= 2.0;
                 if step < 1.0 / 256.0 {
@@ -177,7 +180,7 @@ fn ramp_steps(
                             tolerance,
                             ..
                         } => SolveError::NotConverged {
-                            iterations: total.iterations,
+                            iterations: total.iterations + failed_iterations,
                             residual_norm,
                             tolerance,
                             reason: StopReason::ContinuationStalled,
@@ -285,4 +288,126 @@ fn continuation(
         target,
         Loads::FromUnloaded { pretension },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Tdpcr;
+    use crate::kinetostatics::Solution;
+
+    fn solver(design: &str) -> Solver {
+        let file = format!("{}/designs/{design}.ron", env!("CARGO_MANIFEST_DIR"));
+        Solver::new(&Tdpcr::from_ron_file(&file).expect("bundled design")).expect("valid")
+    }
+
+    /// A solve's report against the boundary evaluations it made (counted apart, in the
+    /// evaluation functions): every residual and every Jacobian, of failed runs too.
+    fn assert_report_counts_every_evaluation(
+        solver: &mut Solver,
+        solve: &str,
+        run: &dyn Fn(&mut Solver) -> Solution,
+    ) {
+        let [r0, j0] = solver.boundary.evaluations();
+        let report = run(solver).report;
+        let [r1, j1] = solver.boundary.evaluations();
+        assert_eq!(
+            (report.residual_evaluations, report.jacobian_evaluations),
+            (r1 - r0 + j1 - j0, j1 - j0),
+            "{solve}: report {report:?}"
+        );
+    }
+
+    #[test]
+    fn a_cold_fk_that_falls_back_reports_its_failed_direct_attempt_too() {
+        let mut s = solver("lilge2022_redundant");
+        // A seeded draw of `cold_fk_stats` (certified reachable from q = 0) whose direct
+        // attempt from the straight guess fails after the iteration limit.
+        let q = [
+            0.0024413170655980055,
+            -0.001212387344936381,
+            0.028735560108241888,
+            0.007352676480969425,
+            0.0036141884425212,
+            0.034397459288307175,
+            0.0019487756407983415,
+            -0.0022233943164393886,
+            0.020227959048392034,
+        ];
+        let (settings, wrench) = (s.settings, s.total_wrench(&Wrench::default()));
+        let guess = s.home_guess(&straight_leg_pose(&s.model, &q), &q, &wrench);
+        let direct = run(
+            &mut s,
+            &settings,
+            Problem::Forward { q: &q },
+            &wrench,
+            guess,
+        );
+        let Err(SolveError::NotConverged { iterations, .. }) = direct else {
+            panic!("the direct attempt was to fail: {direct:?}");
+        };
+        let mut s = solver("lilge2022_redundant");
+        let cold = |s: &mut Solver| {
+            s.solve_fk(&q, &Wrench::default(), None)
+                .expect("falls back")
+        };
+        assert_report_counts_every_evaluation(&mut s, "cold FK", &cold);
+        let report = solver("lilge2022_redundant")
+            .solve_fk(&q, &Wrench::default(), None)
+            .unwrap()
+            .report;
+        assert!(
+            report.iterations > iterations,
+            "{report:?} after a direct attempt of {iterations}"
+        );
+    }
+
+    #[test]
+    fn warm_and_cold_solves_report_every_evaluation() {
+        let mut s = solver("lilge2022");
+        let q = [0.004, 0.02, -0.003, -0.01, 0.002, 0.03];
+        let cold = |s: &mut Solver| s.solve_fk(&q, &Wrench::default(), None).unwrap();
+        assert_report_counts_every_evaluation(&mut s, "cold FK", &cold);
+        let state = cold(&mut s).state;
+        let pose = state.pose();
+        let warm = |s: &mut Solver| {
+            let moved = Pose {
+                position: pose.position + nalgebra::Vector3::new(1e-3, 0.0, 0.0),
+                ..pose
+            };
+            s.solve_ik(&moved, &Wrench::default(), Some(&state))
+                .unwrap()
+        };
+        assert_report_counts_every_evaluation(&mut s, "warm IK", &warm);
+        let cold_ik = |s: &mut Solver| s.solve_ik(&pose, &Wrench::default(), None).unwrap();
+        assert_report_counts_every_evaluation(&mut s, "cold IK", &cold_ik);
+    }
+
+    #[test]
+    fn redundant_ik_reports_every_evaluation_with_either_rule() {
+        let mut s = solver("lilge2022_redundant");
+        let q = [
+            0.002, -0.001, 0.005, -0.001, 0.001, -0.004, 0.0, 0.001, 0.008,
+        ];
+        let state = s.solve_fk(&q, &Wrench::default(), None).unwrap().state;
+        let pose = state.pose();
+        let moved = Pose {
+            position: pose.position + nalgebra::Vector3::new(1e-3, 0.0, -1e-3),
+            ..pose
+        };
+        let warm = |s: &mut Solver| {
+            s.solve_ik(&moved, &Wrench::default(), Some(&state))
+                .unwrap()
+        };
+        let cold = |s: &mut Solver| s.solve_ik(&pose, &Wrench::default(), None).unwrap();
+        assert_report_counts_every_evaluation(&mut s, "least-norm warm IK", &warm);
+        assert_report_counts_every_evaluation(&mut s, "least-norm cold IK", &cold);
+        #[cfg(feature = "qp")]
+        {
+            use crate::kinetostatics::{Objective, Redundancy};
+            s.redundancy = Redundancy::WithinLimits(Objective::ClosestTo(vec![0.0; 9]));
+            assert_report_counts_every_evaluation(&mut s, "within-limits warm IK", &warm);
+            assert_report_counts_every_evaluation(&mut s, "within-limits cold IK", &cold);
+        }
+    }
 }

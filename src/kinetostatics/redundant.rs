@@ -80,6 +80,8 @@ pub(super) struct IkSystem<'a> {
     pub(super) blocks: &'a mut BoundaryJacobians,
     pub(super) pose: &'a Pose,
     pub(super) wrench: &'a Wrench,
+    /// The evaluations asked of this system so far (residual and Jacobian counts).
+    pub(super) evaluated: NewtonReport,
 }
 
 impl<'a> IkSystem<'a> {
@@ -127,11 +129,13 @@ impl LineSearchSystem for IkSystem<'_> {
     }
 
     fn residual_and_jacobian(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.evaluated.count_evaluation(true);
         let p = self.point(x);
         boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)
     }
 
     fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.evaluated.count_evaluation(false);
         let p = self.point(x);
         boundary_residual(self.model, self.boundary, &p, r)
     }

@@ -103,19 +103,30 @@ pub(super) fn run_with(
         one_sided_kinks: solver.one_sided_kinks,
         one_sided_columns_used: Cell::new(0),
         taut: &mut solver.taut_columns,
+        evaluated: NewtonReport::none(),
     };
-    // From the prediction if there is one; from the guess itself if that fails.
+    // From the prediction if there is one; from the guess itself if that fails. The work
+    // of a run that fails goes to the solver's tally of failed runs.
+    let mut failed = NewtonReport::none();
     let report = match predicted {
         Some(mut xp) => match newton::solve(&mut system, &mut xp, settings, &mut solver.newton) {
             Ok(r) => {
                 x = xp;
                 Ok(r)
             }
-            Err(_) => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
+            Err(e) => {
+                failed = NewtonReport::of_failed_run(&e, &system.evaluated);
+                system.evaluated = NewtonReport::none();
+                newton::solve(&mut system, &mut x, settings, &mut solver.newton)
+            }
         },
         None => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
     };
+    if let Err(e) = &report {
+        failed.add_work(&NewtonReport::of_failed_run(e, &system.evaluated));
+    }
     solver.one_sided_columns_used = system.one_sided_columns_used.get();
+    solver.failed_work.add_work(&failed);
     let report = report?;
     if scaled.is_none() {
         solver.newton_system = Some(forward);
@@ -217,6 +228,8 @@ struct ShootingSystem<'a> {
     one_sided_columns_used: Cell<usize>,
     /// The slack tendons' taut-side columns at the last exact Jacobian.
     taut: &'a mut TautColumns,
+    /// The evaluations asked of this system so far (residual and Jacobian counts).
+    evaluated: NewtonReport,
 }
 
 /// The taut side's columns ∂b/∂τ_k of the tendons that were slack (ζ < 0) at the last
@@ -259,6 +272,7 @@ impl ShootingSystem<'_> {
         r: &mut DVector<f64>,
         jac: Option<&mut DMatrix<f64>>,
     ) -> Result<(), SolveError> {
+        self.evaluated.count_evaluation(jac.is_some());
         let head = self.head();
         let (pose, q): (Pose, &[f64]) = match self.problem {
             Problem::Forward { q } => (
@@ -492,6 +506,7 @@ mod tests {
                 wrench: &self.wrench,
                 one_sided_kinks: true,
                 one_sided_columns_used: Cell::new(0),
+                evaluated: NewtonReport::none(),
                 taut: &mut self.taut,
             }
         }

@@ -66,7 +66,10 @@ impl RobotState {
 pub struct Solution {
     /// The configuration.
     pub state: RobotState,
-    /// Newton work and final residual norm.
+    /// Newton work and final residual norm. The work is the whole call's: also that of
+    /// the runs that failed before the one that converged (a direct attempt before its
+    /// continuation, a predicted start before the guess, continuation steps that were
+    /// halved).
     pub report: NewtonReport,
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,

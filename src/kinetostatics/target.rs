@@ -57,8 +57,9 @@ pub(super) fn solve_target(
                 blocks: &mut solver.blocks,
                 pose,
                 wrench,
+                evaluated: NewtonReport::none(),
             };
-            match &solver.redundancy {
+            let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {
                     // The last run's factorization starts a path step from its solution
                     // (on the solver's own model only: not within a continuation of the
@@ -75,7 +76,12 @@ pub(super) fn solve_target(
                 Redundancy::WithinLimits(_) => {
                     unreachable!("every entry point rejects WithinLimits without the `qp` feature")
                 }
+            };
+            if let Err(e) = &result {
+                let failed = NewtonReport::of_failed_run(e, &system.evaluated);
+                solver.failed_work.add_work(&failed);
             }
+            result
         }
     }
 }

@@ -66,7 +66,9 @@ pub(super) fn within_limits_ik(
     objective: &Objective,
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let limits = actuation_limits(system.model);
-    let mut spent = 0;
+    // The work of a first run towards the reference that failed (its evaluations stay in
+    // the system's tally).
+    let mut spent = NewtonReport::none();
     if let Objective::ClosestTo(reference) = objective {
         if reference.len() == limits.len() {
             let q: Vec<f64> = reference
@@ -77,15 +79,29 @@ pub(super) fn within_limits_ik(
             let mut rule = QpStep::new(&limits, Some(reference), settings, &q);
             match system.solve(&mut rule, settings, &q, &guess.y_u) {
                 Ok(done) => return Ok(done),
-                Err(SolveError::NotConverged { iterations, .. }) => spent = iterations,
-                Err(_) => {}
+                Err(e) => spent = NewtonReport::of_failed_run(&e, &system.evaluated),
             }
         }
     }
     let mut rule = QpStep::new(&limits, None, settings, &guess.q);
-    let (state, mut report) = system.solve(&mut rule, settings, &guess.q, &guess.y_u)?;
-    report.iterations += spent;
-    Ok((state, report))
+    match system.solve(&mut rule, settings, &guess.q, &guess.y_u) {
+        Ok((state, mut report)) => {
+            report.add_work(&spent);
+            Ok((state, report))
+        }
+        Err(SolveError::NotConverged {
+            iterations,
+            residual_norm,
+            tolerance,
+            reason,
+        }) => Err(SolveError::NotConverged {
+            iterations: iterations + spent.iterations,
+            residual_norm,
+            tolerance,
+            reason,
+        }),
+        Err(e) => Err(e),
+    }
 }
 
 /// Symmetric limit of each actuator \[m\].
