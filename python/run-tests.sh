@@ -18,7 +18,10 @@ py="$venv/bin/python"
 # --force-reinstall: the version does not change between commits, the code does.
 "$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$root/python"
 
-(cd "$root" && cargo build --quiet --bin tdpcr)
+# The CLI as `cargo test` builds it (test profile, the tests' features): a no-op after the
+# README's test command has run `cargo test`; a plain `cargo build` would compile every
+# dependency again with other features.
+(cd "$root" && cargo test --workspace --no-run --quiet)
 # From python/tests (not the repository root) so `import tdpcr` is the installed package.
 cd "$root/python/tests"
 TDPCR_BIN="$target/debug/tdpcr" "$py" -m pytest -q .

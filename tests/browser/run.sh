@@ -35,9 +35,10 @@ fi
 
 out=${TDPCR_BROWSER_OUT:-$(mktemp -d -t tdpcr-browser-XXXXXX)}
 mkdir -p "$out"
-# The test profile (opt-level 2, shared with cargo test): the sweeps are fast.
-cargo build --profile test --bin tdpcr --bin tdpcr-optim -q -p tdpcr -p tdpcr-optim 2>/dev/null ||
-  cargo build --profile test -q --workspace --bins
+# The CLIs as `cargo test` builds them (test profile, opt-level 2: the sweeps are fast): a
+# no-op after the README's test command has run `cargo test`; a plain `cargo build` would
+# compile every dependency again with other features.
+cargo test --workspace --no-run -q
 bin=target/debug
 check="python3 tests/browser/check_page.py $browser"
 
