@@ -1,9 +1,12 @@
 //! Cold FK over 30 seeded actuation vectors that have an equilibrium on the home branch
 //! (`sampling::seeded_reachable_actuations`, seed 42): converged count, whether each
-//! solution is the certified one, median iterations and solve time (BENCHMARKS.md).
+//! solution is the certified one (and, if not, whether the equilibrium it found is
+//! stable), median and mean iterations (every Newton run of each solve) and solve time
+//! (BENCHMARKS.md).
 //! `cold_fk_stats [DESIGN.ron] [--one-sided]` (default: the reference design;
 //! `--one-sided` turns on [`Solver::one_sided_kinks`]).
 use tdpcr::Tdpcr;
+use tdpcr::analysis::AnalysisSettings;
 use tdpcr::kinetostatics::Solver;
 use tdpcr::rod::Wrench;
 use tdpcr::sampling::seeded_reachable_actuations;
@@ -32,8 +35,17 @@ fn main() {
             Ok(s) => {
                 if (s.state.pose().position - pose.position).norm() > 1e-6 {
                     other_branch += 1;
+                    let stable = solver
+                        .analyze(&s.state, &Wrench::default(), &AnalysisSettings::default())
+                        .map_or("stability unknown", |a| {
+                            if a.stability.stable {
+                                "stable"
+                            } else {
+                                "unstable"
+                            }
+                        });
                     println!(
-                        "q = {q:.4?}: converged to another equilibrium (platform at {:.4?} m, the home branch's at {:.4?} m)",
+                        "q = {q:.4?}: converged to another equilibrium, {stable} (platform at {:.4?} m, the home branch's at {:.4?} m)",
                         s.state.position,
                         pose.position.as_slice()
                     );
@@ -57,12 +69,14 @@ fn main() {
         }
     };
     let mean = times.iter().sum::<f64>() / times.len().max(1) as f64;
+    let mean_iterations = iterations.iter().sum::<f64>() / iterations.len().max(1) as f64;
     println!(
-        "converged {}/{} ({} to another equilibrium), median iterations {}, median Jacobians {}, median time {:.0} µs, mean time {:.0} µs, max {:.0} µs",
+        "converged {}/{} ({} to another equilibrium), median iterations {} (mean {:.1}), median Jacobians {}, median time {:.0} µs, mean time {:.0} µs, max {:.0} µs",
         sample.actuations.len() - failed,
         sample.actuations.len(),
         other_branch,
         median(&mut iterations),
+        mean_iterations,
         median(&mut jacobians),
         median(&mut times),
         mean,
