@@ -66,10 +66,9 @@ pub(super) fn cold_fk(
         )
         .ok()
     };
-    if let Some((home, r)) = home {
-        if let Ok((state, mut report)) = ramp_actuation(solver, settings, home, q, wrench) {
-            report.add_work(&r);
-            return Ok((state, report));
+    if let Some((home, _)) = home {
+        if let Ok(done) = ramp_actuation(solver, settings, home, q, wrench) {
+            return Ok(done);
         }
     }
     let q_final = q.to_vec();
@@ -126,10 +125,9 @@ fn ramp_steps(
         },
     };
     let mut state = start;
-    // The converged steps' work; that of the steps that failed is in the solver's tally
-    // of failed runs (counted here too for the error of a stalled continuation).
-    let mut total = NewtonReport::none();
-    let mut failed_iterations = 0;
+    // The last converged step's report (the work of every step is in the solver's tally
+    // of the call, which the call reports).
+    let mut last = NewtonReport::none();
     let (mut lambda, mut step) = (0.0f64, CONTINUATION_FIRST_STEP);
     while lambda < 1.0 {
         let next = (lambda + step).min(1.0);
@@ -160,8 +158,7 @@ fn ramp_steps(
             state.clone(),
         ) {
             Ok((s, r)) => {
-                total.add_work(&r);
-                total.residual_norm = r.residual_norm;
+                last = r;
                 state = s;
                 lambda = next;
                 if r.iterations <= 4 {
@@ -169,18 +166,16 @@ fn ramp_steps(
                 }
             }
             Err(e) => {
-                if let SolveError::NotConverged { iterations, .. } = e {
-                    failed_iterations += iterations;
-                }
                 step /= 2.0;
                 if step < 1.0 / 256.0 {
                     return Err(match e {
                         SolveError::NotConverged {
+                            iterations,
                             residual_norm,
                             tolerance,
                             ..
                         } => SolveError::NotConverged {
-                            iterations: total.iterations + failed_iterations,
+                            iterations,
                             residual_norm,
                             tolerance,
                             reason: StopReason::ContinuationStalled,
@@ -191,7 +186,7 @@ fn ramp_steps(
             }
         }
     }
-    Ok((state, total))
+    Ok((state, last))
 }
 
 /// FK along q(λ) = q_start + λ (q − q_start) from the solved `start`.

@@ -128,10 +128,10 @@ pub struct Solver {
     pub one_sided_kinks: bool,
     /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
     one_sided_columns_used: usize,
-    /// The work of the Newton runs that failed within the current call (a direct attempt
-    /// before its fallback, a prediction before the guess, a continuation step that was
-    /// halved): added to the call's report, so that it counts all the work done.
-    failed_work: NewtonReport,
+    /// The work of every Newton run of the current call, converged or not (a direct
+    /// attempt before its fallback, a prediction before the guess, the steps of a
+    /// continuation, halved ones included): the counts of the call's report.
+    work: NewtonReport,
     /// The slack tendons' taut-side columns at the last exact Jacobian of a square solve.
     taut_columns: shooting::TautColumns,
     /// The last converged square solve whose factorized Jacobian is still in `newton`
@@ -175,7 +175,7 @@ impl Solver {
             reuse_least_norm_factorization: false,
             one_sided_kinks: false,
             one_sided_columns_used: 0,
-            failed_work: NewtonReport::none(),
+            work: NewtonReport::none(),
             last: None,
             newton_system: None,
             seeded: false,
@@ -228,7 +228,7 @@ impl Solver {
         let v = actuation_violations(self, q);
         let wrench = checked_wrench(self, v, extra, init, settings)?;
         let start = Instant::now();
-        self.failed_work = NewtonReport::none();
+        self.work = NewtonReport::none();
         let result = match init {
             Some(s) => {
                 let target = Target::Forward(q.to_vec());
@@ -241,14 +241,7 @@ impl Solver {
             }
             None => continuation::cold_fk(self, settings, q, &wrench),
         };
-        finish(
-            result,
-            &self.failed_work,
-            start,
-            extra,
-            &self.model,
-            Some(q),
-        )
+        finish(result, &self.work, start, extra, &self.model, Some(q))
     }
 
     /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
@@ -283,12 +276,12 @@ impl Solver {
     ) -> Result<Solution, Error> {
         let wrench = checked_wrench(self, pose_violations(pose), extra, init, settings)?;
         let start = Instant::now();
-        self.failed_work = NewtonReport::none();
+        self.work = NewtonReport::none();
         let guess = match init {
             Some(s) => at_pose(s, pose),
             None if self.model.pairs == 1 => {
                 let result = continuation::cold_ik(self, settings, pose, &wrench);
-                return finish(result, &self.failed_work, start, extra, &self.model, None);
+                return finish(result, &self.work, start, extra, &self.model, None);
             }
             None => self.home_guess(pose, &straight_leg_translations(&self.model, pose), &wrench),
         };
@@ -307,7 +300,7 @@ impl Solver {
             }
             (r, _) => r,
         };
-        finish(result, &self.failed_work, start, extra, &self.model, None)
+        finish(result, &self.work, start, extra, &self.model, None)
     }
 
     /// IK by one Newton run from `guess`, without the continuation fallback of
@@ -342,7 +335,7 @@ impl Solver {
         let v = pose_violations(pose);
         let wrench = checked_wrench(self, v, extra, Some(guess), settings)?;
         let start = Instant::now();
-        self.failed_work = NewtonReport::none();
+        self.work = NewtonReport::none();
         let guess = at_pose(guess, pose);
         let result = solve_target(
             self,
@@ -352,7 +345,7 @@ impl Solver {
             &wrench,
             guess,
         );
-        finish(result, &self.failed_work, start, extra, &self.model, None)
+        finish(result, &self.work, start, extra, &self.model, None)
     }
 
     /// How many one-sided kink columns ([`Solver::one_sided_kinks`]) the system offered
@@ -600,20 +593,26 @@ fn at_pose(state: &RobotState, pose: &Pose) -> RobotState {
 }
 
 /// The solution of a solve that began at `start`, under the external wrench `extra`, its
-/// report counting also the work of the runs that `failed` on the way; a non-finite state
-/// as [`SolveError::Diverged`], naming the actuation `q` (FK) and the load against their
-/// scales in `model`.
+/// report's counts those of all the call's `work`; a non-finite state as
+/// [`SolveError::Diverged`], naming the actuation `q` (FK) and the load against their
+/// scales in `model`. An error keeps the iterations and stop reason of the run it reports
+/// (for a cold solve whose fallbacks fail too, the direct attempt).
 fn finish(
     result: Result<(RobotState, NewtonReport), SolveError>,
-    failed: &NewtonReport,
+    work: &NewtonReport,
     start: Instant,
     extra: &Wrench,
     model: &Model,
     q: Option<&[f64]>,
 ) -> Result<Solution, Error> {
-    let (state, mut report) =
+    let (state, report) =
         result.map_err(|e| diverged_if_non_finite(e, || parallel_robot_inputs(model, q, extra)))?;
-    report.add_work(failed);
+    let report = NewtonReport {
+        iterations: work.iterations,
+        residual_evaluations: work.residual_evaluations,
+        jacobian_evaluations: work.jacobian_evaluations,
+        ..report
+    };
     Ok(Solution {
         state,
         report,

@@ -105,9 +105,9 @@ pub(super) fn run_with(
         taut: &mut solver.taut_columns,
         evaluated: NewtonReport::none(),
     };
-    // From the prediction if there is one; from the guess itself if that fails. The work
-    // of a run that fails goes to the solver's tally of failed runs.
-    let mut failed = NewtonReport::none();
+    // From the prediction if there is one; from the guess itself if that fails. Every
+    // run's work, converged or not, goes to the solver's tally of the call.
+    let mut work = NewtonReport::none();
     let report = match predicted {
         Some(mut xp) => match newton::solve(&mut system, &mut xp, settings, &mut solver.newton) {
             Ok(r) => {
@@ -115,18 +115,19 @@ pub(super) fn run_with(
                 Ok(r)
             }
             Err(e) => {
-                failed = NewtonReport::of_failed_run(&e, &system.evaluated);
+                work = NewtonReport::of_failed_run(&e, &system.evaluated);
                 system.evaluated = NewtonReport::none();
                 newton::solve(&mut system, &mut x, settings, &mut solver.newton)
             }
         },
         None => newton::solve(&mut system, &mut x, settings, &mut solver.newton),
     };
-    if let Err(e) = &report {
-        failed.add_work(&NewtonReport::of_failed_run(e, &system.evaluated));
+    match &report {
+        Ok(r) => work.add_work(r),
+        Err(e) => work.add_work(&NewtonReport::of_failed_run(e, &system.evaluated)),
     }
     solver.one_sided_columns_used = system.one_sided_columns_used.get();
-    solver.failed_work.add_work(&failed);
+    solver.work.add_work(&work);
     let report = report?;
     if scaled.is_none() {
         solver.newton_system = Some(forward);

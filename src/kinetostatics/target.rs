@@ -77,10 +77,12 @@ pub(super) fn solve_target(
                     unreachable!("every entry point rejects WithinLimits without the `qp` feature")
                 }
             };
-            if let Err(e) = &result {
-                let failed = NewtonReport::of_failed_run(e, &system.evaluated);
-                solver.failed_work.add_work(&failed);
-            }
+            // The run's work, converged or not, to the solver's tally of the call.
+            let work = match &result {
+                Ok((_, report)) => *report,
+                Err(e) => NewtonReport::of_failed_run(e, &system.evaluated),
+            };
+            solver.work.add_work(&work);
             result
         }
     }
