@@ -95,6 +95,9 @@ pub struct BoundaryScratch {
     /// Evaluations so far: [`boundary_residual`] calls, [`boundary_derivatives`] calls
     /// (the tests' independent count of a solve's work).
     evaluations: [usize; 2],
+    /// Whether [`boundary_derivatives`] integrates the tension directions of slack
+    /// tendons too ([`BoundaryScratch::keep_slack_tension_directions`]).
+    slack_tension_directions: bool,
 }
 
 impl BoundaryScratch {
@@ -122,7 +125,20 @@ impl BoundaryScratch {
             shapes: None,
             recording: false,
             evaluations: [0; 2],
+            slack_tension_directions: false,
         }
+    }
+
+    /// Whether exact evaluations ([`boundary_derivatives`]) also integrate the tension
+    /// direction of every slack tendon (off by default). A slack tendon's column of B_u
+    /// does not use it (dτ/dζ = 0 there: only its length row, dΘ/dζ, is not zero), so by
+    /// default it is skipped; the one-sided Newton step of a slack tendon that the step
+    /// makes taut needs it
+    /// ([`Solver::one_sided_kinks`](crate::kinetostatics::Solver::one_sided_kinks)).
+    /// Measured (criterion, the 9-DoF design, two of each leg's four tendons slack): the
+    /// exact Jacobian 72 → 57 µs (10 → 8 lanes of tangents).
+    pub fn keep_slack_tension_directions(&mut self, on: bool) {
+        self.slack_tension_directions = on;
     }
 
     /// How many residuals ([`boundary_residual`]) and exact Jacobians
@@ -298,6 +314,7 @@ pub fn boundary_derivatives(
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
+    select_tension_directions(model, p, sc.slack_tension_directions, &mut sc.sens);
     let sens = Some(&mut sc.sens[..]);
     let shapes = match &mut sc.shapes {
         Some(s) if sc.recording => Some(&mut s[..]),
@@ -358,6 +375,28 @@ pub fn boundary_derivatives(
     Ok(())
 }
 
+/// Selects the tension directions each leg integrates: those of the tendons whose
+/// tension moves with their unknown (dτ/dx ≠ 0), or all with `slack`; every leg gets the
+/// largest count of directions (the legs are integrated together).
+fn select_tension_directions(
+    model: &Model,
+    p: &BoundaryPoint,
+    slack: bool,
+    sens: &mut [LegSensitivities; 3],
+) {
+    let (nt, nu) = (model.n_tendons(), model.n_leg_unknowns());
+    let selected: [u32; 3] = std::array::from_fn(|i| {
+        let y = &p.y_u[i * nu..i * nu + nt];
+        (0..nt)
+            .filter(|&k| slack || p.tendon_unknown.tension_derivative(y[k]) != 0.0)
+            .fold(0, |bits, k| bits | 1 << k)
+    });
+    let directions = 6 + selected.iter().map(|b| b.count_ones()).max().unwrap_or(0) as usize;
+    for (sens, bits) in sens.iter_mut().zip(selected) {
+        sens.select_tensions(bits, directions);
+    }
+}
+
 /// Writes the nonzero entries of leg `leg`'s unknown `j` column of B_u into `column`
 /// from the sensitivities and leg ends of the last [`boundary_derivatives`] evaluation:
 /// the sensitivity direction times `scale` (a tendon's dτ/dx, 1 for a strain) and, for a
@@ -379,8 +418,23 @@ fn leg_unknown_column<S: nalgebra::storage::StorageMut<f64, nalgebra::Dyn>>(
     let row = leg_row(model, leg);
     let a = p.pose.rotation * model.coupling_points[leg];
     let tip_axis = end.r.column(2).into_owned();
-    let dir = if j < nt { 6 + j } else { j - nt };
-    let d = &sc.sens[leg].d[dir];
+    let sens = &sc.sens[leg];
+    let d = if j < nt {
+        match sens.tension(j) {
+            Some(d) => d,
+            None => {
+                // Not integrated: dτ/dx = 0 (checked), only the slack slope remains.
+                assert_eq!(
+                    scale, 0.0,
+                    "tension direction {j} of leg {leg} not integrated"
+                );
+                column[row + 6 + j] += slack;
+                return;
+            }
+        }
+    } else {
+        &sens.d[j - nt]
+    };
     let dn = d.n * scale;
     let daxis = d.r.column(2) * scale;
     let d_joint = d.m * scale - (daxis * lc).cross(&end.n) - (tip_axis * lc).cross(&dn);

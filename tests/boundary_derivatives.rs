@@ -221,18 +221,24 @@ fn reference_blocks(
 
 /// The γ columns of B_u converted to the solver's ζ ([`gamma_columns_to_linear`]) are
 /// the blocks evaluated in ζ directly, at the same point.
+/// The model of a bundled design, its evaluation buffers and two sets of blocks.
+fn model_and_buffers(file: &str) -> (Model, BoundaryScratch, [BoundaryJacobians; 2]) {
+    let design = Tdpcr::from_ron_file(design_path(file)).unwrap();
+    let model = Model::new(&design);
+    let sc = BoundaryScratch::new(&model);
+    let blocks = [
+        BoundaryJacobians::new(&model),
+        BoundaryJacobians::new(&model),
+    ];
+    (model, sc, blocks)
+}
+
 #[test]
 fn gamma_columns_converted_to_linear_are_the_linear_blocks() {
     let mut rng = Rng::new(11);
     for file in ["lilge2022.ron", "lilge2022_redundant.ron"] {
-        let design = Tdpcr::from_ron_file(design_path(file)).unwrap();
-        let model = Model::new(&design);
+        let (model, mut sc, [mut by_gamma, mut by_zeta]) = model_and_buffers(file);
         let m = model.n_residuals();
-        let mut sc = BoundaryScratch::new(&model);
-        let (mut by_gamma, mut by_zeta) = (
-            BoundaryJacobians::new(&model),
-            BoundaryJacobians::new(&model),
-        );
         let mut r = DVector::zeros(m);
         for _ in 0..3 {
             let (pose, q, wrench, y_u) = random_point(&model, &mut rng);
@@ -395,4 +401,46 @@ fn exact_blocks_match_central_differences_for_both_designs() {
     }
     eprintln!("worst relative error of the boundary blocks: {overall:.2e}");
     eprintln!("worst relative error of the central-difference baseline: {baseline_worst:.2e}");
+}
+
+/// Skipping the tension directions of slack tendons (the default) changes no block: a
+/// slack tendon's column uses only its length row. Checked with both tendon unknowns, legs
+/// with different numbers of slack tendons, and a tendon exactly at its kink.
+#[test]
+fn skipping_slack_tension_directions_changes_no_block() {
+    let mut rng = Rng::new(23);
+    for file in ["lilge2022.ron", "lilge2022_redundant.ron"] {
+        let (model, mut sc, [mut skipped, mut full]) = model_and_buffers(file);
+        let m = model.n_residuals();
+        let (mut r1, mut r2) = (DVector::zeros(m), DVector::zeros(m));
+        for trial in 0..4 {
+            let (pose, q, wrench, mut y_u) = random_point(&model, &mut rng);
+            let tendons: Vec<usize> = model.tendon_unknown_indices().collect();
+            // Leg 0 all taut, one tendon of leg 1 at its kink.
+            for &i in &tendons[..model.n_tendons()] {
+                y_u[i] = y_u[i].abs();
+            }
+            y_u[tendons[model.n_tendons()]] = 0.0;
+            let tendon_unknown = if trial % 2 == 0 {
+                TendonUnknown::Gamma
+            } else {
+                TendonUnknown::Linear
+            };
+            let p = BoundaryPoint {
+                pose: &pose,
+                q: &q,
+                wrench: &wrench,
+                y_u: &y_u,
+                tendon_unknown,
+            };
+            sc.keep_slack_tension_directions(false);
+            boundary_derivatives(&model, &mut sc, &p, &mut r1, &mut skipped).unwrap();
+            sc.keep_slack_tension_directions(true);
+            boundary_derivatives(&model, &mut sc, &p, &mut r2, &mut full).unwrap();
+            assert_eq!(r1, r2, "{file}, trial {trial}: residual");
+            assert_eq!(skipped.b_x, full.b_x, "{file}, trial {trial}: B_x");
+            assert_eq!(skipped.b_q, full.b_q, "{file}, trial {trial}: B_q");
+            assert_eq!(skipped.b_u, full.b_u, "{file}, trial {trial}: B_u");
+        }
+    }
 }

@@ -298,6 +298,9 @@ impl ShootingSystem<'_> {
         self.taut.at.fill(f64::NAN);
         match self.method {
             JacobianMethod::Exact => {
+                // The one-sided columns of slack tendons need their tension directions.
+                self.boundary
+                    .keep_slack_tension_directions(self.one_sided_kinks);
                 boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)?;
                 // The taut column is ∂b/∂τ: the column of ζ only while dτ/dζ = 1.
                 debug_assert_eq!(SOLVER_TENDON_UNKNOWN.tension_derivative(0.0), 1.0);

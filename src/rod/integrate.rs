@@ -4,9 +4,11 @@
 //! they are the exact derivatives of the discrete map.
 //!
 //! Sensitivity directions, in this order: u(0) (3), v(0) (3), then the tension τ_k of
-//! each tendon (n_t). Tendon ends apply the force/moment jumps of MODEL.md §2; the tip
-//! outputs n, m are taken after the jumps of the tendons ending at L, i.e. they are the
-//! wrench the rod transmits beyond its tip (n(L) − Σ f_t,k, m(L) − Σ l_t,k).
+//! each tendon (n_t), or of the selected tendons only
+//! ([`LegSensitivities::select_tensions`]). Tendon ends apply the force/moment jumps of
+//! MODEL.md §2; the tip outputs n, m are taken after the jumps of the tendons ending at L,
+//! i.e. they are the wrench the rod transmits beyond its tip (n(L) − Σ f_t,k,
+//! m(L) − Σ l_t,k).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -51,15 +53,25 @@ impl LegEnd {
 }
 
 /// Derivatives of [`LegEnd`] with respect to the sensitivity directions.
+///
+/// Direction (lane) j < 6 is u(0)_j, then v(0); the lanes from 6 hold the tensions of the
+/// selected tendons ([`LegSensitivities::select_tensions`]; by default every tendon k
+/// in lane 6 + k).
 #[derive(Debug, Clone)]
 pub struct LegSensitivities {
     directions: usize,
+    /// Lane of tendon k's tension direction, or [`NO_LANE`].
+    tension_lanes: [usize; MAX_TENDONS],
     /// `d[j]` = ∂(tip state)/∂(direction j).
     pub d: [LegEnd; MAX_DIRECTIONS],
 }
 
+/// The lane of a tension direction that is not integrated.
+const NO_LANE: usize = usize::MAX;
+
 impl LegSensitivities {
-    /// Room for the first `directions` directions: 6 (strains only) up to 6 + n_t.
+    /// Room for the first `directions` directions: 6 (strains only) up to 6 + n_t, tendon
+    /// k's tension in lane 6 + k.
     ///
     /// # Panics
     /// If `directions` exceeds [`MAX_DIRECTIONS`] (a programming error).
@@ -69,15 +81,57 @@ impl LegSensitivities {
             directions <= MAX_DIRECTIONS,
             "at most {MAX_DIRECTIONS} directions"
         );
-        Self {
+        let mut sens = Self {
             directions,
+            tension_lanes: [NO_LANE; MAX_TENDONS],
             d: [LegEnd::zeros(); MAX_DIRECTIONS],
+        };
+        for (k, lane) in sens.tension_lanes.iter_mut().enumerate() {
+            if 6 + k < directions {
+                *lane = 6 + k;
+            }
+        }
+        sens
+    }
+
+    /// Integrates the tension directions of the tendons in the bit set `tendons` only
+    /// (bit k: tendon k), in lanes 6, 7, … in tendon order, and `directions` lanes in
+    /// all (the lanes beyond the selected tendons stay zero: the legs of one
+    /// [`integrate_legs`] call need equal counts). A slack tendon's tension direction is
+    /// zero in every column that uses it (dτ/dζ = 0), and skipping it saves a vector of
+    /// lanes where two of four tendons are slack.
+    ///
+    /// # Panics
+    /// If `directions` is below 6 + the selected count or above [`MAX_DIRECTIONS`] (a
+    /// programming error).
+    #[track_caller]
+    pub fn select_tensions(&mut self, tendons: u32, directions: usize) {
+        let selected = tendons.count_ones() as usize;
+        assert!(
+            (6 + selected..=MAX_DIRECTIONS).contains(&directions),
+            "{directions} directions for {selected} tensions"
+        );
+        self.directions = directions;
+        let mut next = 6;
+        for (k, lane) in self.tension_lanes.iter_mut().enumerate() {
+            *lane = if tendons & (1 << k) != 0 {
+                next += 1;
+                next - 1
+            } else {
+                NO_LANE
+            };
         }
     }
 
     /// Number of directions computed.
     pub fn directions(&self) -> usize {
         self.directions
+    }
+
+    /// ∂(tip state)/∂τ_k, if that direction was integrated.
+    pub fn tension(&self, k: usize) -> Option<&LegEnd> {
+        let lane = *self.tension_lanes.get(k)?;
+        (lane < self.directions).then(|| &self.d[lane])
     }
 }
 
@@ -154,6 +208,9 @@ struct Buffers<T: Real> {
     tendons: TendonSlots<T>,
     /// Tangents of each lane's leg.
     tangents: Vec<LegTangents>,
+    /// `tension_lanes[lane][slot]`: the direction lane of the tension of the tendon in
+    /// `slot` (from [`LegSensitivities::select_tensions`]; [`NO_LANE`] if not integrated).
+    tension_lanes: [[usize; MAX_TENDONS]; MAX_LEGS],
 }
 
 impl<T: Real> Buffers<T> {
@@ -167,6 +224,7 @@ impl<T: Real> Buffers<T> {
             ks: Box::new([z; MAX_STAGES]),
             tendons: TendonSlots::new(),
             tangents: (0..T::LANES).map(|_| LegTangents::new()).collect(),
+            tension_lanes: [[NO_LANE; MAX_TENDONS]; MAX_LEGS],
         }
     }
 }
@@ -401,7 +459,14 @@ fn integrate_lanes<const N: usize, T: Real>(
         buf.tendons.set_lane(lane, model, &start.tensions);
     }
     buf.y = y;
-    if N > 0 {
+    if let Some(sens) = sens.as_deref() {
+        buf.tension_lanes = [[NO_LANE; MAX_TENDONS]; MAX_LEGS];
+        for (leg, sens) in sens.iter().enumerate() {
+            for (slot, &k) in buf.tendons.tendon[leg][..nt].iter().enumerate() {
+                buf.tension_lanes[leg][slot] = sens.tension_lanes[k];
+            }
+        }
+        buf.stage.clear_tension_sources();
         for tg in &mut buf.tangents[..legs] {
             tg.dy.set_initial::<N>(nt);
         }
@@ -538,6 +603,7 @@ fn rk_step<const N: usize, T: Real>(
         ks,
         tendons,
         tangents,
+        tension_lanes,
     } = buf;
     for i in 0..tab.stages {
         let input = if i == 0 { &*y } else { &*y_stage };
@@ -557,7 +623,7 @@ fn rk_step<const N: usize, T: Real>(
             y_stage.set_stage_input(y, &terms[..input.n]);
         }
         if N > 0 {
-            stage.linearize(model, tendons, nd);
+            stage.linearize(model, tendons, tension_lanes, nd);
             let block = FEEDBACK_ROWS * N;
             let keep = tab.kept[i];
             for (leg, tg) in tangents[..legs].iter_mut().enumerate() {
@@ -638,7 +704,7 @@ fn apply_tendon_ends<const N: usize, T: Real>(
         buf.y.u += inv_bt.map(T::splat).component_mul(&rt) * tau;
         for (leg, tg) in buf.tangents[..legs].iter_mut().enumerate() {
             let (t, rt, r_k) = (lane3(&t, leg), lane3(&rt, leg), lane3(&r_lanes, leg));
-            let tension_lane = 6 + buf.tendons.tendon[leg][k];
+            let tension_lane = buf.tension_lanes[leg][k];
             let (len, tau) = (len.lane(leg), tau.lane(leg));
             let (pre, dy) = (&tg.dy_stage, &mut tg.dy);
             for j in 0..N {
@@ -715,12 +781,8 @@ mod tests {
         assert_eq!(d[..6], reference.1[..6]);
     }
 
-    /// Three different legs integrated together, one per SIMD lane, give bitwise the tips
-    /// and sensitivities of three separate integrations, with and without AVX2; a
-    /// slack tendon in one lane and a taut one in another exercise the per-lane selects.
-    #[test]
-    fn legs_in_lanes_are_bitwise_the_single_legs() {
-        let model = leg();
+    /// Three different legs, leg i pulled by tendon i (one taut, the others slack).
+    fn three_starts() -> [LegStart; 3] {
         let start = |i: usize| {
             let mut tensions = [0.0; MAX_TENDONS];
             tensions[i % 3] = 1.5 + i as f64;
@@ -736,7 +798,16 @@ mod tests {
                 tensions,
             }
         };
-        let starts = [start(0), start(1), start(2)];
+        [start(0), start(1), start(2)]
+    }
+
+    /// Three different legs integrated together, one per SIMD lane, give bitwise the tips
+    /// and sensitivities of three separate integrations, with and without AVX2; a
+    /// slack tendon in one lane and a taut one in another exercise the per-lane selects.
+    #[test]
+    fn legs_in_lanes_are_bitwise_the_single_legs() {
+        let model = leg();
+        let starts = three_starts();
         for directions in [0, 6, 9] {
             let single = |i: usize| {
                 let (mut end, mut sens) = (LegEnd::zeros(), LegSensitivities::new(directions));
@@ -767,6 +838,51 @@ mod tests {
                     assert_eq!(ends[i], end, "leg {i}, {directions} directions");
                     assert_eq!(sens[i].d, d, "leg {i}, {directions} directions");
                 }
+            }
+        }
+    }
+
+    /// Selected tension directions (the boundary skips slack tendons') are bitwise the
+    /// full set's, each in its own lane; a lane beyond a leg's selection stays zero even
+    /// after an integration on the same buffers that used it.
+    #[test]
+    fn selected_tension_directions_are_bitwise_those_of_the_full_set() {
+        let (model, starts) = (leg(), three_starts());
+        let mut sc = LegsScratch::new();
+        let mut ends = [LegEnd::zeros(); 3];
+        let mut full: Vec<_> = (0..3).map(|_| LegSensitivities::new(9)).collect();
+        integrate_legs(&model, &starts, &mut sc, &mut ends, Some(&mut full), None).unwrap();
+        let mut sens = full.clone();
+        let selections = [0b100, 0b011, 0b000];
+        for (s, bits) in sens.iter_mut().zip(selections) {
+            s.select_tensions(bits, 8);
+        }
+        let mut selected_ends = [LegEnd::zeros(); 3];
+        integrate_legs(
+            &model,
+            &starts,
+            &mut sc,
+            &mut selected_ends,
+            Some(&mut sens),
+            None,
+        )
+        .unwrap();
+        assert_eq!(selected_ends, ends);
+        for (leg, bits) in selections.into_iter().enumerate() {
+            let (s, f) = (&sens[leg], &full[leg]);
+            assert_eq!(s.d[..6], f.d[..6], "leg {leg}: strain directions");
+            for k in 0..3 {
+                let expected = (bits & (1 << k) != 0).then_some(&f.d[6 + k]);
+                assert_eq!(s.tension(k), expected, "leg {leg}, tendon {k}");
+            }
+            let used = 6 + bits.count_ones() as usize;
+            for (lane, d) in s.d[used..8].iter().enumerate() {
+                assert_eq!(
+                    *d,
+                    LegEnd::zeros(),
+                    "leg {leg}, lane {} not zero",
+                    used + lane
+                );
             }
         }
     }

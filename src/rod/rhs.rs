@@ -302,10 +302,24 @@ impl<T: Real> Stage<T> {
         Ok(())
     }
 
+    /// Clears the tension sources of every lane (before an integration whose tension
+    /// lanes may differ from the last one's).
+    pub fn clear_tension_sources(&mut self) {
+        self.inject = [[[0.0; MAX_DIRECTIONS]; 6]; MAX_LEGS];
+    }
+
     /// Builds H_v, H_u and the tension sources (module doc) at the last [`Stage::eval`],
-    /// for the first `directions` sensitivity directions.
+    /// for the first `directions` sensitivity directions; `tension_lanes[leg][slot]` is
+    /// the direction lane of the tension of the tendon in `slot` (≥ `directions` if not
+    /// integrated).
     #[inline(always)]
-    pub fn linearize(&mut self, model: &LegModel, tendons: &TendonSlots<T>, directions: usize) {
+    pub fn linearize(
+        &mut self,
+        model: &LegModel,
+        tendons: &TendonSlots<T>,
+        tension_lanes: &[[usize; MAX_TENDONS]; MAX_LEGS],
+        directions: usize,
+    ) {
         let (u, v, nb, mb) = (&self.u, &self.v, &self.n_body, &self.m_body);
         let (kse, kbt) = (model.k_se.map(T::splat), model.k_bt.map(T::splat));
         let zero = T::zero();
@@ -345,7 +359,7 @@ impl<T: Real> Stage<T> {
         for k in 0..model.n_tendons {
             if self.active & (1 << k) == 0 {
                 for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
-                    let lane = 6 + tendons.tendon[leg][k];
+                    let lane = tension_lanes[leg][k];
                     if lane < directions {
                         for row in inject.iter_mut() {
                             row[lane] = 0.0;
@@ -368,7 +382,7 @@ impl<T: Real> Stage<T> {
                 let src = q * inv_len;
                 let moment = cross(&r, &src);
                 for (leg, inject) in self.inject[..T::LANES].iter_mut().enumerate() {
-                    let lane = 6 + tendons.tendon[leg][k];
+                    let lane = tension_lanes[leg][k];
                     if lane < directions {
                         for i in 0..3 {
                             inject[i][lane] = src[i].lane(leg);
