@@ -1129,6 +1129,13 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// that [starts with chord steps](StepRule::starts_with_chord) has the run start so,
 /// with the residual alone at the start, whatever its size.
 ///
+/// Where the next iterate will need a Jacobian anyway, the full step's trial point is
+/// evaluated with its Jacobian at once (the residual comes with it): after a full step
+/// (or at the first), when ‖F‖² ≥ [`CHORD_TAIL`] × the tolerance (quadratic convergence
+/// then leaves ‖F‖ above the chord tail). A warm 1 mm IK step of the 9-DoF design then
+/// takes 2 Jacobians and 2 residuals instead of 2 and 3 (BENCHMARKS.md); a rejected or
+/// final trial wastes the Jacobian's tangents.
+///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
 /// or [`StopReason::LineSearchFailed`]; [`SolveError::NonFinite`] if F cannot be
@@ -1167,6 +1174,8 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     report.residual_norm = test_norm(&r, &units);
     let first_norm = report.residual_norm;
     let contraction_sq = settings.chord_contraction.powi(2);
+    // Whether the last step was taken whole (the first counts as one).
+    let mut full_steps = true;
     loop {
         if let Some(end) = settings.outcome(&report, first_norm) {
             return end;
@@ -1200,6 +1209,10 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         let step = rule
             .step(system, x, &r, &weights, report.iterations)
             .map_err(|reason| settings.not_converged(&report, reason))?;
+        let speculate =
+            full_steps && report.residual_norm.powi(2) >= CHORD_TAIL * settings.tolerance;
+        // Whether the system's Jacobian is at the trial point of α = 1 (not at x).
+        let mut speculated = false;
         let mut alpha = 1.0;
         let accepted = loop {
             if alpha < 1e-6 {
@@ -1209,15 +1222,28 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
                 *t = x + alpha * d;
             }
             report.residual_evaluations += 1;
-            let ok =
-                system.residual(&x_t, &mut trial).is_ok() && trial.iter().all(|v| v.is_finite());
+            let evaluated = if speculate && alpha == 1.0 {
+                report.jacobian_evaluations += 1;
+                speculated = true;
+                system.residual_and_jacobian(&x_t, &mut trial)
+            } else {
+                system.residual(&x_t, &mut trial)
+            };
+            let ok = evaluated.is_ok() && trial.iter().all(|v| v.is_finite());
             if ok && merit(&trial) < (1.0 - 1e-4 * alpha) * m0 {
                 std::mem::swap(x, &mut x_t);
                 break true;
             }
             alpha *= 0.5;
         };
+        full_steps = accepted && alpha == 1.0;
         if !accepted {
+            if speculated {
+                // The row sums below read the Jacobian at x.
+                system.residual_and_jacobian(x, &mut r)?;
+                report.residual_evaluations += 1;
+                report.jacobian_evaluations += 1;
+            }
             let mut sums = trial;
             system.jacobian_row_sums(x, &mut sums);
             sums.component_div_assign(&units);
@@ -1235,13 +1261,19 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         // stopped) needs no Jacobian at its last iterate.
         report.residual_norm = test_norm(&trial, &units);
         let tail = report.residual_norm <= CHORD_TAIL * settings.tolerance;
-        if tail && alpha == 1.0 && merit(&trial) <= contraction_sq * m0 {
+        // At x already: the speculated Jacobian of an accepted full step.
+        let at_x = speculated && alpha == 1.0;
+        if tail && alpha == 1.0 && !at_x && merit(&trial) <= contraction_sq * m0 {
             std::mem::swap(&mut r, &mut trial);
             fresh = false;
             continue;
         }
         if let Some(end) = settings.outcome(&report, first_norm) {
             return end;
+        }
+        if at_x {
+            std::mem::swap(&mut r, &mut trial);
+            continue;
         }
         system.residual_and_jacobian(x, &mut r)?;
         report.residual_evaluations += 1;

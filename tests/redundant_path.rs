@@ -38,7 +38,10 @@ fn reference(mode: &str) -> Vec<Vec<f64>> {
 
 /// Runs the path with `redundancy` and compares every step's q with `mode`'s reference
 /// (within `tolerance` \[m\]); `reuse` as [`Solver::reuse_least_norm_factorization`].
-/// Returns the largest difference and the Jacobian evaluations of the 30 steps.
+/// Returns the largest difference and the Jacobian evaluations of the 30 steps; checks
+/// that a step whose run evaluates Jacobians takes no more residual evaluations than
+/// twice their number (the trial point of a full step that will need a Jacobian gets it
+/// with its residual: a fresh step of 1 mm takes 2 Jacobians and 4 residuals, not 5).
 fn follow(redundancy: Redundancy, mode: &str, reuse: bool, tolerance: f64) -> (f64, usize) {
     let mut d = Tdpcr::from_ron_file(design_path("lilge2022_redundant_psi0.ron")).unwrap();
     // The reference's discretization (the default before 2026-11-26): this test guards the
@@ -64,6 +67,14 @@ fn follow(redundancy: Redundancy, mode: &str, reuse: bool, tolerance: f64) -> (f
         };
         let s = solver.solve_ik(&target, &w, Some(&state)).unwrap();
         jacobians += s.report.jacobian_evaluations;
+        if !reuse || mode == "strict" {
+            let (r, j) = (s.report.residual_evaluations, s.report.jacobian_evaluations);
+            assert!(
+                r <= 2 * j,
+                "{mode} step {}: {r} residuals for {j} Jacobians",
+                k + 1
+            );
+        }
         for (j, (q, e)) in s.state.q.iter().zip(expected).enumerate() {
             let difference = (q - e).abs();
             assert!(

@@ -31,13 +31,15 @@
 //! residual only shortens steps, so every iterate stays within the limits (a box is
 //! convex) once one is. Converged as every solve ([`NewtonSettings::tolerance`]).
 
+use std::cell::RefCell;
+
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{
     DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
 };
 use nalgebra::{DMatrix, DVector};
 
-use super::least_change::{LeastChange, scaled_step_matrix};
+use super::least_change::{FactorCache, scaled_step_matrix};
 use super::redundant::{IkSystem, LEAST_NORM_Y_WEIGHT, Objective};
 use super::state::RobotState;
 use crate::boundary::BoundaryJacobians;
@@ -129,6 +131,8 @@ struct QpStep<'a> {
     /// The limits active at the last step (rows of [`StepQp::g`]), where the next step's
     /// active-set search starts.
     active: Vec<usize>,
+    /// The last KKT factorization (a chord step repeats the last step's QP).
+    cache: FactorCache,
 }
 
 impl<'a> QpStep<'a> {
@@ -154,6 +158,7 @@ impl<'a> QpStep<'a> {
             reference,
             max_iterations: settings.max_iterations,
             active,
+            cache: FactorCache::default(),
         }
     }
 }
@@ -171,15 +176,17 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         let towards = self
             .reference
             .filter(|_| 2 * iteration < self.max_iterations);
-        let qp = StepQp::new(system.blocks, weights, r, q, self.limits, towards);
+        let mut qp = StepQp::new(system.blocks, weights, r, q, self.limits, towards);
+        qp.cache = RefCell::new(std::mem::take(&mut self.cache));
         let z = match qp.solve_active_set(&mut self.active) {
-            Some(z) => z,
-            None => {
-                let (z, active) = qp.solve()?;
+            Some(z) => Ok(z),
+            None => qp.solve().map(|(z, active)| {
                 self.active = active;
                 z
-            }
+            }),
         };
+        self.cache = qp.cache.take();
+        let z = z?;
         let (mut dq, dy) = qp.unscale(&z);
         dq.extend(dy);
         Ok(dq)
@@ -218,6 +225,8 @@ struct StepQp {
     limits: Vec<f64>,
     /// Column scales S of δy.
     y_scale: Vec<f64>,
+    /// The KKT factorizations of the trials, reused where they repeat.
+    cache: RefCell<FactorCache>,
 }
 
 impl StepQp {
@@ -264,6 +273,7 @@ impl StepQp {
             h,
             limits: limits.to_vec(),
             y_scale,
+            cache: RefCell::default(),
         }
     }
 
@@ -382,7 +392,10 @@ impl StepQp {
             fixed[j] = true;
             values[j] = sign * self.h[i];
         }
-        let (z, lambda) = LeastChange::factor(&self.a_eq, &self.p, &fixed)?
+        let (z, lambda) = self
+            .cache
+            .borrow_mut()
+            .factor(&self.a_eq, &self.p, &fixed)?
             .solve(&self.a_eq, &self.p, &self.c, &self.b_eq, &values)?;
         let mu = active
             .iter()
