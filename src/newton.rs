@@ -1061,6 +1061,12 @@ pub trait LineSearchSystem {
     /// [`LineSearchSystem::residual_and_jacobian`] at `x`: the size of the terms each row
     /// sums, for the round-off floor ([`round_off_floor`]).
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>);
+
+    /// Whether [`solve_with_line_search`] may evaluate a full step's trial point with its
+    /// Jacobian where the next iterate will need one (default: no).
+    fn speculate_jacobians(&self) -> bool {
+        false
+    }
 }
 
 /// How each iteration of [`solve_with_line_search`] computes its step from the residual
@@ -1129,12 +1135,14 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// that [starts with chord steps](StepRule::starts_with_chord) has the run start so,
 /// with the residual alone at the start, whatever its size.
 ///
-/// Where the next iterate will need a Jacobian anyway, the full step's trial point is
-/// evaluated with its Jacobian at once (the residual comes with it): after a full step
-/// (or at the first), when ‖F‖² ≥ [`CHORD_TAIL`] × the tolerance (quadratic convergence
-/// then leaves ‖F‖ above the chord tail). A warm 1 mm IK step of the 9-DoF design then
-/// takes 2 Jacobians and 2 residuals instead of 2 and 3 (BENCHMARKS.md); a rejected or
-/// final trial wastes the Jacobian's tangents.
+/// If the system [speculates](LineSearchSystem::speculate_jacobians), where the next
+/// iterate will need a Jacobian anyway the full step's trial point is evaluated with its
+/// Jacobian at once (the residual comes with it): after a full step (or at the first),
+/// when ‖F‖² ≥ [`CHORD_TAIL`] × the tolerance (quadratic convergence then leaves ‖F‖
+/// above the chord tail). A warm 1 mm IK step of the 9-DoF design then takes 2 Jacobians
+/// and 2 residuals instead of 2 and 3 (BENCHMARKS.md); a rejected or final trial wastes
+/// the Jacobian's tangents (the 9-DoF sweeps' path steps: 8 % more Jacobians, 11 % more
+/// time, so they do not speculate).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -1209,8 +1217,9 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         let step = rule
             .step(system, x, &r, &weights, report.iterations)
             .map_err(|reason| settings.not_converged(&report, reason))?;
-        let speculate =
-            full_steps && report.residual_norm.powi(2) >= CHORD_TAIL * settings.tolerance;
+        let speculate = system.speculate_jacobians()
+            && full_steps
+            && report.residual_norm.powi(2) >= CHORD_TAIL * settings.tolerance;
         // Whether the system's Jacobian is at the trial point of α = 1 (not at x).
         let mut speculated = false;
         let mut alpha = 1.0;

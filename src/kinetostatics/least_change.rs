@@ -8,15 +8,15 @@
 //! S = A_f P_f⁻¹ A_fᵀ (m × m, symmetric positive definite when A_f has full row rank), by
 //! Cholesky. For the 9-DoF IK (n = 48 unknowns, m = 36 rows) that is a 36 × 36 Cholesky
 //! where the full KKT system is an 84 × 84 LU. The factor is kept: a chord step with a
-//! new b ([`LeastChange::solve`]) costs two triangular solves.
+//! new b ([`LeastChange::solve`]) costs two triangular solves, and [`FactorCache`] keeps
+//! the last one for a QP that repeats.
 //!
-//! S's lower triangle is summed column by column of A (contiguous inner loops) and
-//! factored in place by a plain column Cholesky: nalgebra's product (through
-//! matrixmultiply, with packing) and its generic Cholesky took 15 µs of the 36 × 36
-//! factorizations of a warm 1 mm within-limits step of the 9-DoF design, about 9 % of it
-//! (perf, 2026-11-26; BENCHMARKS.md "The redundant IK's linear algebra").
+//! Tried and dropped (2026-11-26): S summed by columns and factored by a hand-written
+//! AVX2 Cholesky. Per factorization it took about the time of nalgebra's product and
+//! Cholesky, and its round-off moved the 9-DoF sweeps' maps (0.3 % of the cells, on
+//! other branches near folds); nalgebra's factorization is kept bit for bit.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use crate::boundary::BoundaryJacobians;
 
@@ -31,26 +31,25 @@ pub(super) fn scaled_step_matrix(
 ) -> (DMatrix<f64>, Vec<f64>) {
     let (m, nq, ny) = (blocks.b_q.nrows(), q_units.len(), blocks.b_u.ncols());
     let mut a = DMatrix::zeros(m, nq + ny);
-    // Column by column through slices (column-major storage).
-    let weights = weights.as_slice();
-    let (q_part, y_part) = a.as_mut_slice().split_at_mut(m * nq);
+    // Column by column through slices (column-major storage; indexing checked every
+    // entry), the same operations in the same order.
+    let w = weights.as_slice();
     let b_q = blocks.b_q.as_slice();
-    for (j, out) in q_part.chunks_exact_mut(m).enumerate() {
-        for ((o, w), b) in out.iter_mut().zip(weights).zip(&b_q[j * m..(j + 1) * m]) {
+    for (j, out) in a.as_mut_slice()[..m * nq].chunks_exact_mut(m).enumerate() {
+        for ((o, w), b) in out.iter_mut().zip(w).zip(&b_q[j * m..(j + 1) * m]) {
             *o = w * b * q_units[j];
         }
     }
     let mut y_scale = vec![1.0; ny];
     let b_u = blocks.b_u.as_slice();
-    for (j, out) in y_part.chunks_exact_mut(m).enumerate() {
-        for ((o, w), b) in out.iter_mut().zip(weights).zip(&b_u[j * m..(j + 1) * m]) {
+    for j in 0..ny {
+        let mut col = a.column_mut(nq + j);
+        for ((o, w), b) in col.iter_mut().zip(w).zip(&b_u[j * m..(j + 1) * m]) {
             *o = w * b;
         }
-        let norm = out.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let norm = col.norm();
         y_scale[j] = if norm > 0.0 { 1.0 / norm } else { 1.0 };
-        for o in out.iter_mut() {
-            *o *= y_scale[j];
-        }
+        col.scale_mut(y_scale[j]);
     }
     (a, y_scale)
 }
@@ -58,9 +57,8 @@ pub(super) fn scaled_step_matrix(
 /// The factorized least-change problem of one A, P and set of fixed variables.
 #[derive(Debug, Clone)]
 pub(super) struct LeastChange {
-    /// The Cholesky factor L of S = A_f P_f⁻¹ A_fᵀ = L Lᵀ in the lower triangle (the
-    /// upper one holds nothing of use).
-    l: DMatrix<f64>,
+    /// Cholesky factor of S = A_f P_f⁻¹ A_fᵀ.
+    s: Cholesky<f64, Dyn>,
     /// Whether each variable is fixed.
     fixed: Vec<bool>,
 }
@@ -70,16 +68,16 @@ impl LeastChange {
     /// marked in `fixed` (n flags); `None` when S is not positive definite to working
     /// precision (A_f without full row rank).
     pub(super) fn factor(a: &DMatrix<f64>, p: &[f64], fixed: &[bool]) -> Option<Self> {
-        let mut l = DMatrix::<f64>::zeros(a.nrows(), a.nrows());
-        schur_cholesky(a, p, fixed, &mut l).then(|| Self {
-            l,
+        let mut a_scaled = a.clone();
+        for (j, mut col) in a_scaled.column_iter_mut().enumerate() {
+            let s = if fixed[j] { 0.0 } else { 1.0 / p[j].sqrt() };
+            col.scale_mut(s);
+        }
+        let s = Cholesky::new(&a_scaled * a_scaled.transpose())?;
+        Some(Self {
+            s,
             fixed: fixed.to_vec(),
         })
-    }
-
-    /// x = S⁻¹ x in place: L y = x forward, then Lᵀ x = y backward.
-    fn solve_s(&self, x: &mut [f64]) {
-        solve_cholesky(&self.l, x);
     }
 
     /// z (n) and λ (m) for `a`, `p` (as factored), linear term `c` (n), right-hand side
@@ -106,7 +104,7 @@ impl LeastChange {
                 rhs.axpy(coefficient, &a.column(j), 1.0);
             }
         }
-        self.solve_s(rhs.as_mut_slice());
+        self.s.solve_mut(&mut rhs);
         let lambda = rhs;
         let at_lambda = a.tr_mul(&lambda);
         let z = DVector::from_fn(n, |j, _| {
@@ -124,7 +122,7 @@ impl LeastChange {
 /// The last [`LeastChange`] factorization with its inputs, reused while they repeat: the
 /// chord step of the within-limits IK solves the QP of the same Jacobian again, and its
 /// active-set search usually tries the same limits (a factorization is about 4 µs of a
-/// warm 1 mm step's 159 µs; BENCHMARKS.md "The redundant IK's linear algebra").
+/// warm 1 mm step; BENCHMARKS.md "The redundant IK's linear algebra").
 #[derive(Debug, Clone, Default)]
 pub(super) struct FactorCache {
     /// A, the diagonal P and the fixed variables of `factor`.
@@ -156,96 +154,6 @@ impl FactorCache {
             }
         }
         self.factor.as_ref()
-    }
-}
-
-avx2_dispatch! {
-    fn schur_cholesky = schur_cholesky_avx2 / schur_cholesky_inline;
-        (a: &DMatrix<f64>, p: &[f64], fixed: &[bool], l: &mut DMatrix<f64>) -> bool
-}
-
-avx2_dispatch! {
-    fn solve_cholesky = solve_cholesky_avx2 / solve_cholesky_inline;
-        (l: &DMatrix<f64>, x: &mut [f64])
-}
-
-/// The lower triangle of `l` (m × m, zero on entry) becomes the Cholesky factor of
-/// S = A_f P_f⁻¹ A_fᵀ; false where S is not positive definite to working precision.
-#[inline(always)]
-fn schur_cholesky_inline(
-    a: &DMatrix<f64>,
-    p: &[f64],
-    fixed: &[bool],
-    l: &mut DMatrix<f64>,
-) -> bool {
-    let m = a.nrows();
-    // S (lower triangle) = Σ_j a_j a_jᵀ / p_j over the free columns a_j.
-    for (j, column) in a.column_iter().enumerate() {
-        if fixed[j] {
-            continue;
-        }
-        let column = column.as_slice();
-        let inv_p = 1.0 / p[j];
-        for k in 0..m {
-            let f = column[k] * inv_p;
-            if f != 0.0 {
-                let target = &mut l.as_mut_slice()[k * m + k..(k + 1) * m];
-                for (t, x) in target.iter_mut().zip(&column[k..]) {
-                    *t += x * f;
-                }
-            }
-        }
-    }
-    // L Lᵀ = S in place, column by column (right-looking).
-    for k in 0..m {
-        let d = l[(k, k)];
-        if !(d > 0.0 && d.is_finite()) {
-            return false;
-        }
-        let d = d.sqrt();
-        let inv_d = 1.0 / d;
-        let data = l.as_mut_slice();
-        data[k * m + k] = d;
-        for x in &mut data[k * m + k + 1..(k + 1) * m] {
-            *x *= inv_d;
-        }
-        let (done, rest) = data.split_at_mut((k + 1) * m);
-        let pivot = &done[k * m..(k + 1) * m];
-        for j in k + 1..m {
-            let f = pivot[j];
-            if f != 0.0 {
-                let target = &mut rest[(j - k - 1) * m + j..(j - k) * m];
-                for (t, x) in target.iter_mut().zip(&pivot[j..]) {
-                    *t -= x * f;
-                }
-            }
-        }
-    }
-    true
-}
-
-/// x = S⁻¹ x in place for S = L Lᵀ (`l`'s lower triangle): L y = x forward, then
-/// Lᵀ x = y backward.
-#[inline(always)]
-fn solve_cholesky_inline(l: &DMatrix<f64>, x: &mut [f64]) {
-    let m = x.len();
-    let data = l.as_slice();
-    for k in 0..m {
-        let column = &data[k * m..(k + 1) * m];
-        let v = x[k] / column[k];
-        x[k] = v;
-        for (t, l) in x[k + 1..].iter_mut().zip(&column[k + 1..]) {
-            *t -= l * v;
-        }
-    }
-    for k in (0..m).rev() {
-        let column = &data[k * m..(k + 1) * m];
-        let dot: f64 = column[k + 1..]
-            .iter()
-            .zip(&x[k + 1..])
-            .map(|(l, v)| l * v)
-            .sum();
-        x[k] = (x[k] - dot) / column[k];
     }
 }
 

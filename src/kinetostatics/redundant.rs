@@ -82,6 +82,10 @@ pub(super) struct IkSystem<'a> {
     pub(super) wrench: &'a Wrench,
     /// The evaluations asked of this system so far (residual and Jacobian counts).
     pub(super) evaluated: NewtonReport,
+    /// Whether the driver may evaluate a full step's trial point with its Jacobian
+    /// ([`LineSearchSystem::speculate_jacobians`]): not on the workspace sweep's path steps
+    /// ([`super::Solver::solve_ik_newton`]), where it cost time.
+    pub(super) speculate: bool,
 }
 
 impl<'a> IkSystem<'a> {
@@ -146,6 +150,10 @@ impl LineSearchSystem for IkSystem<'_> {
 
     fn row_scales(&self, c: &mut DVector<f64>) {
         row_scales(self.model, c);
+    }
+
+    fn speculate_jacobians(&self) -> bool {
+        self.speculate
     }
 
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {

@@ -58,6 +58,7 @@ pub(super) fn solve_target(
                 pose,
                 wrench,
                 evaluated: NewtonReport::none(),
+                speculate: solver.speculate_trials,
             };
             let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {
