@@ -1142,7 +1142,10 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// above the chord tail). A warm 1 mm IK step of the 9-DoF design then takes 2 Jacobians
 /// and 2 residuals instead of 2 and 3 (BENCHMARKS.md); a rejected or final trial wastes
 /// the Jacobian's tangents (the 9-DoF sweeps' path steps: 8 % more Jacobians, 11 % more
-/// time, so they do not speculate).
+/// time, so they do not speculate). The iterates are those of a run without it, except
+/// where a speculated trial lands in the chord tail: the next step is then a Newton step
+/// with that trial's Jacobian instead of a chord step (a difference within the
+/// tolerance).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
