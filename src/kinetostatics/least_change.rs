@@ -121,7 +121,7 @@ impl LeastChange {
 
 /// The last [`LeastChange`] factorization with its inputs, reused while they repeat: the
 /// chord step of the within-limits IK solves the QP of the same Jacobian again, and its
-/// active-set search usually tries the same limits (a factorization is about 4 µs of a
+/// active-set search usually tries the same limits (a factorization is about 4–6 µs of a
 /// warm 1 mm step; BENCHMARKS.md "The redundant IK's linear algebra").
 #[derive(Debug, Clone, Default)]
 pub(super) struct FactorCache {
