@@ -99,15 +99,26 @@ fn bench_ik_within_limits(c: &mut Criterion) {
             )
         });
     }
-    // Least-norm steps of 1 mm back and forth between two poses, each from the solver's
-    // own last solution (a controller's loop), with fresh Jacobians (the default) and
-    // starting from the last factorization (`Solver::reuse_least_norm_factorization`).
-    for (name, reuse) in [
-        ("least_norm_back_and_forth", false),
-        ("least_norm_back_and_forth_reused", true),
+    // Steps of 1 mm back and forth between two poses, each from the solver's own last
+    // solution (a controller's loop): least-norm with fresh Jacobians (the default) and
+    // starting from the last factorization (`Solver::reuse_least_norm_factorization`),
+    // and within the limits.
+    for (name, reuse, redundancy) in [
+        ("least_norm_back_and_forth", false, Redundancy::LeastNorm),
+        (
+            "least_norm_back_and_forth_reused",
+            true,
+            Redundancy::LeastNorm,
+        ),
+        (
+            "within_limits_back_and_forth",
+            false,
+            Redundancy::WithinLimits(Objective::LeastChange),
+        ),
     ] {
         let mut solver = Solver::new(&d).unwrap();
         solver.reuse_least_norm_factorization = reuse;
+        solver.redundancy = redundancy;
         let w = Wrench::default();
         let mut last = solver.solve_ik(&Pose::identity(), &w, None).unwrap().state;
         let poses = [1e-3, 0.0].map(|x| Pose {

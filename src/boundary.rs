@@ -98,6 +98,33 @@ pub struct BoundaryScratch {
     /// Whether [`boundary_derivatives`] integrates the tension directions of slack
     /// tendons too ([`BoundaryScratch::keep_slack_tension_directions`]).
     slack_tension_directions: bool,
+    /// What the buffers' last integration with sensitivities was computed at, while
+    /// `ends`, `sens` (and `shapes`, if it recorded them) still hold it.
+    integrated: Option<ExactIntegration>,
+    /// Integrations of the three legs so far (with or without sensitivities).
+    integrations: usize,
+}
+
+/// The inputs of an integration of the legs with sensitivities: an evaluation with the
+/// same ones reuses it ([`boundary_derivatives`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ExactIntegration {
+    starts: [LegStart; 3],
+    /// The tension directions of each leg (bit k: tendon k) and the directions in all.
+    tensions: [u32; 3],
+    directions: usize,
+    /// Whether it recorded the shapes.
+    shapes: bool,
+}
+
+impl ExactIntegration {
+    /// Whether an evaluation that needs `wanted` can reuse this integration.
+    fn serves(&self, wanted: &Self) -> bool {
+        self.starts == wanted.starts
+            && self.tensions == wanted.tensions
+            && self.directions == wanted.directions
+            && (self.shapes || !wanted.shapes)
+    }
 }
 
 impl BoundaryScratch {
@@ -126,7 +153,17 @@ impl BoundaryScratch {
             recording: false,
             evaluations: [0; 2],
             slack_tension_directions: false,
+            integrated: None,
+            integrations: 0,
         }
+    }
+
+    /// How many times these buffers integrated the three legs, with or without
+    /// sensitivities ([`boundary_residual`], [`boundary_derivatives`] and
+    /// [`boundary_residual_with_derivatives`] integrate at most once per call; an
+    /// evaluation at the leg starts of the last integration with sensitivities reuses it).
+    pub fn integrations(&self) -> usize {
+        self.integrations
     }
 
     /// Whether exact evaluations ([`boundary_derivatives`]) also integrate the tension
@@ -157,11 +194,18 @@ impl BoundaryScratch {
     /// Turning it off keeps the buffers, so switching it on and off around single
     /// evaluations allocates nothing.
     pub fn record_shapes(&mut self, model: &Model, on: bool) {
-        if on && self.shapes.is_none() {
+        if on {
+            self.allocate_shapes(model);
+        }
+        self.recording = on;
+    }
+
+    /// Allocates the shapes' buffers, once.
+    fn allocate_shapes(&mut self, model: &Model) {
+        if self.shapes.is_none() {
             let shape = || LegShape::with_capacity(model.leg.n_disks);
             self.shapes = Some(Box::new([shape(), shape(), shape()]));
         }
-        self.recording = on;
     }
 
     /// The legs' frames at their disks from the last [`boundary_derivatives`], when
@@ -284,15 +328,90 @@ pub fn boundary_residual(
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
+    // The tips of an integration with sensitivities from the same starts are these (the
+    // primal part is the same arithmetic, bit for bit).
+    if !sc.integrated.is_some_and(|last| last.starts == sc.starts) {
+        sc.integrated = None;
+        sc.integrations += 1;
+        integrate_legs(
+            &model.leg,
+            &sc.starts,
+            &mut sc.group,
+            &mut sc.ends,
+            None,
+            None,
+        )?;
+    }
+    assemble_residual(model, p, &sc.ends, r);
+    Ok(())
+}
+
+/// Evaluates b at `p` as [`boundary_residual`] does, but integrates the legs with their
+/// sensitivities (and the shapes, when recording or if `shapes`), so that a
+/// [`boundary_derivatives`] at the same leg starts next needs no integration: for a
+/// point where the Jacobian is likely asked next (a solve's last iterate before the
+/// analysis of its solution, or the start of the next solve from it). Counted as a
+/// residual evaluation; it costs an exact one.
+///
+/// # Errors
+/// As [`boundary_residual`].
+pub fn boundary_residual_with_derivatives(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    p: &BoundaryPoint,
+    shapes: bool,
+    r: &mut DVector<f64>,
+) -> Result<(), SolveError> {
+    sc.evaluations[0] += 1;
+    if shapes {
+        sc.allocate_shapes(model);
+    }
+    integrate_with_derivatives(model, sc, p, shapes)?;
+    assemble_residual(model, p, &sc.ends, r);
+    Ok(())
+}
+
+/// Integrates the legs at `p` with sensitivities into `sc` (the directions
+/// [`select_tension_directions`] picks; the shapes when recording or if `shapes`),
+/// unless the buffers hold such an integration from the same starts already.
+fn integrate_with_derivatives(
+    model: &Model,
+    sc: &mut BoundaryScratch,
+    p: &BoundaryPoint,
+    shapes: bool,
+) -> Result<(), SolveError> {
+    for i in 0..3 {
+        sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
+    }
+    let (tensions, directions) = select_tension_directions(model, p, sc.slack_tension_directions);
+    let recording = (sc.recording || shapes) && sc.shapes.is_some();
+    let wanted = ExactIntegration {
+        starts: sc.starts,
+        tensions,
+        directions,
+        shapes: recording,
+    };
+    if sc.integrated.is_some_and(|last| last.serves(&wanted)) {
+        return Ok(());
+    }
+    sc.integrated = None;
+    sc.integrations += 1;
+    for (sens, bits) in sc.sens.iter_mut().zip(tensions) {
+        sens.select_tensions(bits, directions);
+    }
+    let shapes = match &mut sc.shapes {
+        Some(s) if recording => Some(&mut s[..]),
+        _ => None,
+    };
     integrate_legs(
         &model.leg,
         &sc.starts,
         &mut sc.group,
         &mut sc.ends,
-        None,
-        None,
+        Some(&mut sc.sens[..]),
+        shapes,
     )?;
-    assemble_residual(model, p, &sc.ends, r);
+    sc.integrated = Some(wanted);
     Ok(())
 }
 
@@ -311,23 +430,7 @@ pub fn boundary_derivatives(
     sc.evaluations[1] += 1;
     let nt = model.n_tendons();
     let nu = model.n_leg_unknowns();
-    for i in 0..3 {
-        sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
-    }
-    select_tension_directions(model, p, sc.slack_tension_directions, &mut sc.sens);
-    let sens = Some(&mut sc.sens[..]);
-    let shapes = match &mut sc.shapes {
-        Some(s) if sc.recording => Some(&mut s[..]),
-        _ => None,
-    };
-    integrate_legs(
-        &model.leg,
-        &sc.starts,
-        &mut sc.group,
-        &mut sc.ends,
-        sens,
-        shapes,
-    )?;
+    integrate_with_derivatives(model, sc, p, false)?;
     assemble_residual(model, p, &sc.ends, r);
     // Through slices: nalgebra's `fill` walks a matrix with its strided iterator, element
     // by element (60 % of this function's own time, perf 2026-11-26).
@@ -377,15 +480,11 @@ pub fn boundary_derivatives(
     Ok(())
 }
 
-/// Selects the tension directions each leg integrates: those of the tendons whose
-/// tension moves with their unknown (dτ/dx ≠ 0), or all with `slack`; every leg gets the
-/// largest count of directions (the legs are integrated together).
-fn select_tension_directions(
-    model: &Model,
-    p: &BoundaryPoint,
-    slack: bool,
-    sens: &mut [LegSensitivities; 3],
-) {
+/// The tension directions each leg integrates (bit k: tendon k): those of the tendons
+/// whose tension moves with their unknown (dτ/dx ≠ 0), or all with `slack`; and the
+/// directions in all, which every leg gets (the legs are integrated together): 6 + the
+/// largest count.
+fn select_tension_directions(model: &Model, p: &BoundaryPoint, slack: bool) -> ([u32; 3], usize) {
     let (nt, nu) = (model.n_tendons(), model.n_leg_unknowns());
     let selected: [u32; 3] = std::array::from_fn(|i| {
         let y = &p.y_u[i * nu..i * nu + nt];
@@ -394,9 +493,7 @@ fn select_tension_directions(
             .fold(0, |bits, k| bits | 1 << k)
     });
     let directions = 6 + selected.iter().map(|b| b.count_ones()).max().unwrap_or(0) as usize;
-    for (sens, bits) in sens.iter_mut().zip(selected) {
-        sens.select_tensions(bits, directions);
-    }
+    (selected, directions)
 }
 
 /// Writes the nonzero entries of leg `leg`'s unknown `j` column of B_u into `column`

@@ -69,6 +69,25 @@ pub trait NonlinearSystem {
         *out += step;
     }
 
+    /// Whether the driver evaluates a trial it expects to end the run by
+    /// [`NonlinearSystem::final_residual`] (default: no).
+    fn prepares_final_residual(&self) -> bool {
+        false
+    }
+
+    /// r = F at a trial `x` that the driver expects to end the run ([`ends_the_run`]):
+    /// at `x` or at a point within round-off of it, with what the system's caller asks
+    /// for next prepared there (the leg sensitivities of the Jacobian at the solution).
+    /// If the run goes on after all, the driver evaluates
+    /// [`NonlinearSystem::residual`] at `x` again, so its iterates are those of a run
+    /// without. Default: the residual.
+    ///
+    /// # Errors
+    /// As [`NonlinearSystem::residual`].
+    fn final_residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.residual(x, r)
+    }
+
     /// For a system with kinks: whether the Newton step `step` from `x` leaves the kink
     /// of unknown `j` (near `x`) for the side whose slope the Jacobian at `x` does not
     /// hold; if so, the raw column ∂F/∂x_j of that side is written into `column` (n
@@ -563,7 +582,9 @@ fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
 /// costs one residual evaluation instead of one Jacobian evaluation and keeps the
 /// convergence superlinear. A trial point is evaluated together with its Jacobian when the
 /// last step contracted poorly (a fresh Jacobian will be needed there anyway), unless a
-/// trial of the same iteration was already rejected.
+/// trial of the same iteration was already rejected. A chord trial that [`ends_the_run`]
+/// predicts to converge is evaluated by [`NonlinearSystem::final_residual`] if the system
+/// [prepares one](NonlinearSystem::prepares_final_residual).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the residual norm and iteration count, or
@@ -750,9 +771,24 @@ pub fn solve<S: NonlinearSystem>(
             // A Jacobian at the trial only where one will be needed and the trial is likely
             // to be accepted (not after a rejection in this iteration).
             let with_jacobian = !contracting && !rejected;
+            let last = !with_jacobian
+                && system.prepares_final_residual()
+                && sc.history.len() >= 2
+                && ends_the_run(norm, sc.history[sc.history.len() - 2], settings.tolerance);
             let evaluated = if with_jacobian {
                 jacobians += 1;
                 system.residual_and_jacobian(&sc.x_trial, &mut sc.r_trial, &mut sc.jac_trial)
+            } else if last {
+                let e = system.final_residual(&sc.x_trial, &mut sc.r_trial);
+                let converged = sc.r_trial.iter().all(|v| v.is_finite())
+                    && test_norm(&sc.r_trial, &sc.units) <= settings.tolerance;
+                if e.is_ok() && !converged {
+                    // Mispredicted: the run goes on from the residual at the trial itself.
+                    evaluations += 1;
+                    system.residual(&sc.x_trial, &mut sc.r_trial)
+                } else {
+                    e
+                }
             } else {
                 system.residual(&sc.x_trial, &mut sc.r_trial)
             };
@@ -1062,8 +1098,27 @@ pub trait LineSearchSystem {
     /// sums, for the round-off floor ([`round_off_floor`]).
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>);
 
+    /// Whether the driver evaluates a trial it expects to end the run by
+    /// [`LineSearchSystem::final_residual`] (default: no).
+    fn prepares_final_residual(&self) -> bool {
+        false
+    }
+
+    /// r = F at a trial `x` that the driver expects to end the run, as
+    /// [`NonlinearSystem::final_residual`]. Default: the residual.
+    ///
+    /// # Errors
+    /// As [`LineSearchSystem::residual`].
+    fn final_residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        self.residual(x, r)
+    }
+
     /// Whether [`solve_with_line_search`] may evaluate a full step's trial point with its
-    /// Jacobian where the next iterate will need one (default: no).
+    /// Jacobian where the next iterate will need one, and end a run at a chord trial
+    /// within the tolerance that contracted less than a chord step must (default: no).
+    /// The workspace sweep's path steps do neither: there the first cost 8 % more
+    /// Jacobians, and the second saved no time and moved 0.05–0.08 % of the 9-DoF maps'
+    /// cells onto other branches near folds (BENCHMARKS.md).
     fn speculate_jacobians(&self) -> bool {
         false
     }
@@ -1110,6 +1165,22 @@ pub trait StepRule<S> {
     }
 }
 
+/// Whether a chord trial from an iterate with residual norm `norm` (test units), after
+/// one with `previous`, is expected to end the run: the last contraction repeated,
+/// norm · (norm / previous), within [`FINAL_PREDICTION`] × `tolerance`.
+///
+/// Measured on the reference design's Δ = 3 mm sweep (z ∈ [−20, 0] mm, 2026-11-26): of
+/// the chord trials so predicted 35 794 converged and 51 did not; the trials not so
+/// predicted converged in 6 606 of 27 886 cases (with the factor 1 instead of 0.1:
+/// 41 455 and 4 620 — a mispredicted trial costs its sensitivities, about six
+/// residuals).
+pub fn ends_the_run(norm: f64, previous: f64, tolerance: f64) -> bool {
+    norm * (norm / previous) <= FINAL_PREDICTION * tolerance
+}
+
+/// See [`ends_the_run`].
+pub const FINAL_PREDICTION: f64 = 0.1;
+
 /// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
 /// multiple of the tolerance (unless its rule [starts with chord
 /// steps](StepRule::starts_with_chord)). An underdetermined system has a manifold of solutions, and
@@ -1129,9 +1200,15 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// Jacobians: an accepted trial's residual is tested first, so a converged (or stopped)
 /// run ends without a Jacobian at its last iterate. After a full step (α = 1) that
 /// reduced ‖W F‖ by at least [`NewtonSettings::chord_contraction`] to at most
-/// [`CHORD_TAIL`] × the tolerance (in test units), the next step is a chord step ([`StepRule::chord_step`], the Jacobian reused) taken whole if it contracts
-/// as much again; otherwise (or when the rule has no chord step) the Jacobian is
-/// evaluated at x and the step computed anew, so a chord step never ends a run. A rule
+/// [`CHORD_TAIL`] × the tolerance (in test units), the next step is a chord step
+/// ([`StepRule::chord_step`], the Jacobian reused) taken whole if it contracts as much
+/// again or, where the system [speculates](LineSearchSystem::speculate_jacobians), lands
+/// within the tolerance (which ends the run); otherwise (or when the rule
+/// has no chord step) the Jacobian is evaluated at x and the step computed anew. Before
+/// 2026-11-26 a chord trial within the tolerance was rejected unless it contracted: the
+/// 9-DoF design's warm 1 mm steps land their second iterate at ‖F‖ ≈ 1.0–1.25e-10, just
+/// above the tolerance, and a chord trial from there at 1–3e-11, often less than tenfold
+/// below: a Jacobian and a Newton step more (BENCHMARKS.md). A rule
 /// that [starts with chord steps](StepRule::starts_with_chord) has the run start so,
 /// with the residual alone at the start, whatever its size.
 ///
@@ -1146,6 +1223,10 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// where a speculated trial lands in the chord tail: the next step is then a Newton step
 /// with that trial's Jacobian instead of a chord step (a difference within the
 /// tolerance).
+///
+/// A chord trial that [`ends_the_run`] predicts to converge is evaluated by
+/// [`LineSearchSystem::final_residual`] if the system [prepares
+/// one](LineSearchSystem::prepares_final_residual) (the same iterates).
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] with the stop reason of the settings, of the step rule,
@@ -1184,6 +1265,8 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
     report.residual_evaluations += 1;
     report.residual_norm = test_norm(&r, &units);
     let first_norm = report.residual_norm;
+    // ‖F‖ at the iterate before x (test units), for [`ends_the_run`].
+    let mut previous_norm = f64::INFINITY;
     let contraction_sq = settings.chord_contraction.powi(2);
     // Whether the last step was taken whole (the first counts as one).
     let mut full_steps = true;
@@ -1200,12 +1283,29 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
                     *t = x + d;
                 }
                 report.residual_evaluations += 1;
-                let ok = system.residual(&x_t, &mut trial).is_ok()
-                    && trial.iter().all(|v| v.is_finite());
-                if ok && merit(&trial) <= contraction_sq * m0 {
+                let finite = |r: &DVector<f64>| r.iter().all(|v| v.is_finite());
+                let last = system.prepares_final_residual()
+                    && ends_the_run(report.residual_norm, previous_norm, settings.tolerance);
+                let mut ok = if last {
+                    system.final_residual(&x_t, &mut trial).is_ok() && finite(&trial)
+                } else {
+                    system.residual(&x_t, &mut trial).is_ok() && finite(&trial)
+                };
+                if last && ok && test_norm(&trial, &units) > settings.tolerance {
+                    // Mispredicted: the run goes on from the residual at x_t itself.
+                    report.residual_evaluations += 1;
+                    ok = system.residual(&x_t, &mut trial).is_ok() && finite(&trial);
+                }
+                // A trial within the tolerance ends the run, contracted or not (where the
+                // system speculates: see `LineSearchSystem::speculate_jacobians`).
+                let converged = ok
+                    && system.speculate_jacobians()
+                    && test_norm(&trial, &units) <= settings.tolerance;
+                if ok && (converged || merit(&trial) <= contraction_sq * m0) {
                     std::mem::swap(x, &mut x_t);
                     std::mem::swap(&mut r, &mut trial);
                     report.iterations += 1;
+                    previous_norm = report.residual_norm;
                     report.residual_norm = test_norm(&r, &units);
                     continue;
                 }
@@ -1213,6 +1313,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             system.residual_and_jacobian(x, &mut r)?;
             report.residual_evaluations += 1;
             report.jacobian_evaluations += 1;
+            previous_norm = report.residual_norm;
             report.residual_norm = test_norm(&r, &units);
             fresh = true;
             continue;
@@ -1271,6 +1372,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         report.iterations += 1;
         // The accepted trial's residual decides first: a run that ends here (converged or
         // stopped) needs no Jacobian at its last iterate.
+        previous_norm = report.residual_norm;
         report.residual_norm = test_norm(&trial, &units);
         let tail = report.residual_norm <= CHORD_TAIL * settings.tolerance;
         // At x already: the speculated Jacobian of an accepted full step.
@@ -1290,6 +1392,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         system.residual_and_jacobian(x, &mut r)?;
         report.residual_evaluations += 1;
         report.jacobian_evaluations += 1;
+        previous_norm = report.residual_norm;
         report.residual_norm = test_norm(&r, &units);
     }
 }
@@ -1840,6 +1943,255 @@ mod tests {
         let (chord, _) = run(true);
         assert!(chord.jacobian_evaluations < chord.iterations, "{chord:?}");
         assert!(chord.jacobian_evaluations < newton.jacobian_evaluations);
+    }
+
+    /// F(x) = x + 0.1 x² in one unknown, with Newton steps and chord steps of half the
+    /// length (a poorly contracting chord).
+    struct Quadratic {
+        jac: f64,
+        speculate: bool,
+    }
+
+    impl LineSearchSystem for Quadratic {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &[f64],
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.jac = 1.0 + 0.2 * x[0];
+            self.residual(x, r)
+        }
+        fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            r[0] = x[0] + 0.1 * x[0] * x[0];
+            Ok(())
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            w.fill(1.0);
+        }
+        fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+            sums[0] = self.jac.abs() * x[0].abs();
+        }
+        fn speculate_jacobians(&self) -> bool {
+            self.speculate
+        }
+    }
+
+    struct HalfChord;
+
+    impl StepRule<Quadratic> for HalfChord {
+        fn step(
+            &mut self,
+            system: &Quadratic,
+            _: &[f64],
+            r: &DVector<f64>,
+            _: &DVector<f64>,
+            _: usize,
+        ) -> Result<Vec<f64>, StopReason> {
+            Ok(vec![-r[0] / system.jac])
+        }
+        fn chord_step(
+            &mut self,
+            system: &Quadratic,
+            _: &[f64],
+            r: &DVector<f64>,
+            _: &DVector<f64>,
+            _: usize,
+        ) -> Option<Vec<f64>> {
+            Some(vec![-0.5 * r[0] / system.jac])
+        }
+    }
+
+    /// A chord trial within the tolerance ends the run even where it contracts the
+    /// residual less than a chord step must to be kept otherwise (where the system
+    /// speculates).
+    #[test]
+    fn a_chord_trial_within_the_tolerance_ends_the_run() {
+        let settings = NewtonSettings::default();
+        // One Newton step leaves |F| ≈ 0.1 x₀² ≈ 1.5e-10, the half chord step about half
+        // of that: within the tolerance 1e-10, but contracted only twofold.
+        let run = |speculate: bool| {
+            let mut x = vec![(1.5e-9f64).sqrt()];
+            let mut system = Quadratic {
+                jac: 0.0,
+                speculate,
+            };
+            solve_with_line_search(&mut system, &mut HalfChord, &mut x, &settings).unwrap()
+        };
+        let report = run(true);
+        assert_eq!(
+            (report.iterations, report.jacobian_evaluations),
+            (2, 1),
+            "{report:?}"
+        );
+        assert!(report.residual_norm <= settings.tolerance);
+        assert!(report.residual_norm > 0.1 * 1.5e-10);
+        // A system that does not speculate takes a Jacobian and a Newton step more.
+        let report = run(false);
+        assert_eq!(report.jacobian_evaluations, 2, "{report:?}");
+    }
+
+    /// A system whose prepared last residual is evaluated at x + `shift` (as the solver's
+    /// systems evaluate theirs at the point the solution's state restates), counting the
+    /// prepared evaluations.
+    struct Prepared<S> {
+        inner: S,
+        shift: f64,
+        prepared: usize,
+    }
+
+    impl NonlinearSystem for Prepared<Shifted> {
+        fn dim(&self) -> usize {
+            self.inner.dim()
+        }
+        fn residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+            self.inner.residual(x, r)
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+            j: &mut DMatrix<f64>,
+        ) -> Result<(), SolveError> {
+            self.inner.residual_and_jacobian(x, r, j)
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            self.inner.row_weights(w);
+        }
+        fn prepares_final_residual(&self) -> bool {
+            true
+        }
+        fn final_residual(
+            &mut self,
+            x: &DVector<f64>,
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.prepared += 1;
+            self.inner.residual(&x.add_scalar(self.shift), r)
+        }
+    }
+
+    impl LineSearchSystem for Prepared<Circle> {
+        fn dim(&self) -> usize {
+            self.inner.dim()
+        }
+        fn residual_and_jacobian(
+            &mut self,
+            x: &[f64],
+            r: &mut DVector<f64>,
+        ) -> Result<(), SolveError> {
+            self.inner.residual_and_jacobian(x, r)
+        }
+        fn residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            self.inner.residual(x, r)
+        }
+        fn row_weights(&self, w: &mut DVector<f64>) {
+            self.inner.row_weights(w);
+        }
+        fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {
+            self.inner.jacobian_row_sums(x, sums);
+        }
+        fn prepares_final_residual(&self) -> bool {
+            true
+        }
+        fn final_residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+            self.prepared += 1;
+            let shifted: Vec<f64> = x.iter().map(|v| v + self.shift).collect();
+            self.inner.residual(&shifted, r)
+        }
+    }
+
+    impl StepRule<Prepared<Circle>> for CircleStep {
+        fn step(
+            &mut self,
+            system: &Prepared<Circle>,
+            x: &[f64],
+            r: &DVector<f64>,
+            w: &DVector<f64>,
+            i: usize,
+        ) -> Result<Vec<f64>, StopReason> {
+            StepRule::<Circle>::step(self, &system.inner, x, r, w, i)
+        }
+        fn chord_step(
+            &mut self,
+            system: &Prepared<Circle>,
+            x: &[f64],
+            r: &DVector<f64>,
+            w: &DVector<f64>,
+            i: usize,
+        ) -> Option<Vec<f64>> {
+            StepRule::<Circle>::chord_step(self, &system.inner, x, r, w, i)
+        }
+    }
+
+    /// A prepared last residual changes no iterate: a run ends where it would have, and
+    /// where the prediction fails (here: a shift that leaves the residual above the
+    /// tolerance) the driver evaluates the residual at the trial itself and goes on as
+    /// without, one residual evaluation later.
+    #[test]
+    fn a_prepared_last_residual_changes_no_iterate() {
+        let settings = NewtonSettings {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let square = |shift: Option<f64>| {
+            let mut system = Prepared {
+                inner: Shifted(1.0),
+                shift: shift.unwrap_or(0.0),
+                prepared: 0,
+            };
+            let mut x = DVector::from_vec(vec![0.0, 0.0]);
+            let mut sc = NewtonScratch::new(2, 60);
+            let report = match shift {
+                Some(_) => solve(&mut system, &mut x, &settings, &mut sc),
+                None => solve(&mut system.inner, &mut x, &settings, &mut sc),
+            };
+            (x, report.unwrap(), system.prepared)
+        };
+        same_iterates_with_prepared_residuals(square);
+        let line_search = |shift: Option<f64>| {
+            let mut system = Prepared {
+                inner: Circle {
+                    jac: [0.0; 2],
+                    jacobians: 0,
+                },
+                shift: shift.unwrap_or(0.0),
+                prepared: 0,
+            };
+            let mut rule = CircleStep {
+                chord: true,
+                chords: 0,
+            };
+            let mut x = vec![1.0, 0.5];
+            let settings = NewtonSettings::default();
+            let report = match shift {
+                Some(_) => solve_with_line_search(&mut system, &mut rule, &mut x, &settings),
+                None => solve_with_line_search(&mut system.inner, &mut rule, &mut x, &settings),
+            };
+            (x, report.unwrap(), system.prepared)
+        };
+        same_iterates_with_prepared_residuals(line_search);
+    }
+
+    /// `run(shift)` (`None`: without preparing) gives the same solution with a prepared
+    /// last residual within round-off (1e-17) of the trial, and with one that misses
+    /// (1e-3: one more residual evaluation per prepared trial).
+    fn same_iterates_with_prepared_residuals<X: PartialEq + std::fmt::Debug>(
+        run: impl Fn(Option<f64>) -> (X, NewtonReport, usize),
+    ) {
+        let (plain, plain_report, _) = run(None);
+        for (shift, extra) in [(1e-17, 0), (1e-3, 1)] {
+            let (x, report, prepared) = run(Some(shift));
+            assert!(prepared >= 1, "no trial was predicted to end the run");
+            assert_eq!(x, plain, "shift {shift}");
+            assert_eq!(
+                report.residual_evaluations,
+                plain_report.residual_evaluations + extra * prepared,
+                "shift {shift}"
+            );
+        }
     }
 
     #[test]

@@ -18,7 +18,8 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use tdpcr::Tdpcr;
 use tdpcr::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, FiniteDifference, boundary_derivatives,
-    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns, gamma_columns_to_linear,
+    boundary_derivatives_fd, boundary_residual, boundary_residual_with_derivatives,
+    convert_tendon_unknowns, gamma_columns_to_linear,
 };
 use tdpcr::model::{Model, Pose};
 use tdpcr::rod::Wrench;
@@ -442,5 +443,100 @@ fn skipping_slack_tension_directions_changes_no_block() {
             assert_eq!(skipped.b_q, full.b_q, "{file}, trial {trial}: B_q");
             assert_eq!(skipped.b_u, full.b_u, "{file}, trial {trial}: B_u");
         }
+    }
+}
+
+/// An evaluation at the leg starts (q, y_u) of the buffers' last integration with
+/// sensitivities reuses it, whatever its pose and wrench: the residual and blocks are
+/// bitwise those of fresh buffers, and only evaluations at other starts (or needing
+/// shapes or tension directions the last one did not integrate) integrate again.
+#[test]
+fn the_last_integration_serves_evaluations_at_the_same_leg_starts() {
+    let mut rng = Rng::new(29);
+    for file in ["lilge2022.ron", "lilge2022_redundant.ron"] {
+        let (model, mut sc, [mut blocks, mut fresh_blocks]) = model_and_buffers(file);
+        let m = model.n_residuals();
+        let (mut r, mut fresh_r) = (DVector::zeros(m), DVector::zeros(m));
+        let (pose, q, wrench, y_u) = random_point(&model, &mut rng);
+        let (other_pose, _, other_wrench, other_y) = random_point(&model, &mut rng);
+        let point = |pose, wrench, y_u| BoundaryPoint {
+            pose,
+            q: &q,
+            wrench,
+            y_u,
+            tendon_unknown: TendonUnknown::Gamma,
+        };
+        let p1 = point(&pose, &wrench, &y_u);
+        // The same leg starts at another pose and wrench.
+        let p1_moved = point(&other_pose, &other_wrench, &y_u);
+        let p2 = point(&pose, &wrench, &other_y);
+        // (evaluation, point, integrations it should add)
+        #[derive(Clone, Copy, Debug)]
+        enum Kind {
+            Residual,
+            Derivatives,
+            Prepared,
+        }
+        let steps = [
+            (Kind::Derivatives, &p1, 1),
+            (Kind::Derivatives, &p1_moved, 0),
+            (Kind::Residual, &p1_moved, 0),
+            (Kind::Residual, &p2, 1),
+            (Kind::Derivatives, &p1, 1),
+            (Kind::Prepared, &p2, 1),
+            (Kind::Derivatives, &p2, 0),
+            (Kind::Residual, &p2, 0),
+            (Kind::Derivatives, &p1_moved, 1),
+        ];
+        for (k, &(kind, p, added)) in steps.iter().enumerate() {
+            let before = sc.integrations();
+            let mut fresh = BoundaryScratch::new(&model);
+            match kind {
+                Kind::Derivatives => {
+                    boundary_derivatives(&model, &mut sc, p, &mut r, &mut blocks).unwrap();
+                    boundary_derivatives(&model, &mut fresh, p, &mut fresh_r, &mut fresh_blocks)
+                        .unwrap();
+                    assert_eq!(blocks, fresh_blocks, "{file}, step {k}: blocks");
+                }
+                Kind::Residual => {
+                    boundary_residual(&model, &mut sc, p, &mut r).unwrap();
+                    boundary_residual(&model, &mut fresh, p, &mut fresh_r).unwrap();
+                }
+                Kind::Prepared => {
+                    boundary_residual_with_derivatives(&model, &mut sc, p, false, &mut r).unwrap();
+                    boundary_residual(&model, &mut fresh, p, &mut fresh_r).unwrap();
+                }
+            }
+            assert_eq!(r, fresh_r, "{file}, step {k} ({kind:?}): residual");
+            assert_eq!(
+                sc.integrations() - before,
+                added,
+                "{file}, step {k} ({kind:?}): integrations"
+            );
+        }
+        // Shapes: recorded by an integration only when asked; an evaluation that wants
+        // them does not take an integration without.
+        sc.record_shapes(&model, true);
+        let before = sc.integrations();
+        boundary_derivatives(&model, &mut sc, &p1_moved, &mut r, &mut blocks).unwrap();
+        assert_eq!(sc.integrations() - before, 1, "{file}: shapes wanted");
+        let mut fresh = BoundaryScratch::new(&model);
+        fresh.record_shapes(&model, true);
+        boundary_derivatives(&model, &mut fresh, &p1, &mut fresh_r, &mut fresh_blocks).unwrap();
+        let shapes = |s: &BoundaryScratch| {
+            s.shapes()
+                .unwrap()
+                .iter()
+                .map(|leg| format!("{leg:?}"))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(shapes(&sc), shapes(&fresh), "{file}: shapes");
+        boundary_derivatives(&model, &mut sc, &p1, &mut r, &mut blocks).unwrap();
+        assert_eq!(sc.integrations() - before, 1, "{file}: shapes kept");
+        // The slack tendons' tension directions, once asked for, are integrated.
+        sc.keep_slack_tension_directions(true);
+        boundary_derivatives(&model, &mut sc, &p1, &mut r, &mut blocks).unwrap();
+        assert_eq!(sc.integrations() - before, 2, "{file}: slack directions");
+        assert_eq!(blocks, fresh_blocks, "{file}: with slack directions");
     }
 }

@@ -123,6 +123,7 @@ impl LeastChange {
 /// chord step of the within-limits IK solves the QP of the same Jacobian again, and its
 /// active-set search usually tries the same limits (a factorization is about 4–6 µs of a
 /// warm 1 mm step; BENCHMARKS.md "The redundant IK's linear algebra").
+#[cfg(feature = "qp")]
 #[derive(Debug, Clone, Default)]
 pub(super) struct FactorCache {
     /// A, the diagonal P and the fixed variables of `factor`.
@@ -130,6 +131,7 @@ pub(super) struct FactorCache {
     factor: Option<LeastChange>,
 }
 
+#[cfg(feature = "qp")]
 impl FactorCache {
     /// [`LeastChange::factor`] of `a`, `p`, `fixed`, from the cache if it holds them.
     pub(super) fn factor(
@@ -230,6 +232,7 @@ mod tests {
         assert_eq!((z[1], z[4]), (0.7, -0.2));
     }
 
+    #[cfg(feature = "qp")]
     #[test]
     fn the_cache_returns_the_factorization_of_its_inputs() {
         let a = DMatrix::from_fn(3, 5, |i, j| ((i * 5 + j * 2) % 7) as f64 - 3.0);

@@ -153,6 +153,12 @@ pub struct Solver {
     /// ([`crate::newton::LineSearchSystem::speculate_jacobians`]); off in
     /// [`Solver::solve_ik_newton_with`] (the workspace sweep's path steps).
     speculate_trials: bool,
+    /// Whether every solve's expected last residual is prepared for the analysis of its
+    /// solution ([`Solver::prepare_for_analysis`]).
+    prepare_for_analysis: bool,
+    /// q and y_u (γ) of the last converged IK of the redundant design on the solver's
+    /// own model: a run from it starts with the Jacobian its last residual prepared.
+    last_redundant: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl Solver {
@@ -186,7 +192,23 @@ impl Solver {
             least_norm: None,
             extrapolate_starts: true,
             speculate_trials: true,
+            prepare_for_analysis: false,
+            last_redundant: None,
         })
+    }
+
+    /// Whether each solve's last residual, where Newton expects it to be its last, is
+    /// evaluated with the legs' sensitivities and shapes for the analysis of the
+    /// solution that follows ([`Solver::analyze`], [`Solver::blocks_at`] with shapes
+    /// recorded): that analysis then reuses the integration instead of repeating it.
+    /// For callers that analyze every solution within the actuation limits (the
+    /// workspace sweep); off by default, since a solve not followed by that analysis
+    /// pays a Jacobian's integration for its last residual. Solutions, iterates and
+    /// analyses are bit for bit those without; the reports count such a residual as
+    /// one. (A warm IK of the redundant design from this solver's last solution always
+    /// prepares its last residual for the next such solve: see [`Solver::solve_ik`].)
+    pub fn prepare_for_analysis(&mut self, on: bool) {
+        self.prepare_for_analysis = on;
     }
 
     /// The robot model.
@@ -254,7 +276,12 @@ impl Solver {
     /// design resolves its redundancy as [`Solver::redundancy`] says: by default the
     /// least-norm change of q at every Gauss–Newton step, or with
     /// [`Redundancy::WithinLimits`] a QP step that keeps q within its limits
-    /// ([`crate::redundancy`]).
+    /// ([`crate::redundancy`]). A warm IK of the 9-DoF design from this solver's last
+    /// solution (a path step, as a controller or `trajectory` makes; not towards a
+    /// reference, nor with [`Solver::reuse_least_norm_factorization`]) evaluates the
+    /// residual it expects to be its last with the legs' sensitivities, so that the next
+    /// step from its solution starts without integrating its first Jacobian: the same
+    /// solutions and counts, one residual's integration less per such step.
     ///
     /// # Errors
     /// As [`Solver::solve_fk`].
@@ -383,6 +410,7 @@ impl Solver {
         self.seeded = false;
         self.last = None;
         self.least_norm = None;
+        self.last_redundant = None;
         self.newton.forget_jacobian();
     }
 

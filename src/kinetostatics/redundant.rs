@@ -28,10 +28,10 @@ use nalgebra::{DMatrix, DVector};
 use super::SOLVER_TENDON_UNKNOWN;
 use super::least_change::{LeastChange, scaled_step_matrix};
 use super::shooting::{row_scales, row_weights};
-use super::state::RobotState;
+use super::state::{RobotState, as_restated};
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives, boundary_residual,
-    convert_tendon_unknowns,
+    boundary_residual_with_derivatives, convert_tendon_unknowns,
 };
 use crate::error::{SolveError, StopReason};
 use crate::model::{Model, Pose};
@@ -82,10 +82,18 @@ pub(super) struct IkSystem<'a> {
     pub(super) wrench: &'a Wrench,
     /// The evaluations asked of this system so far (residual and Jacobian counts).
     pub(super) evaluated: NewtonReport,
-    /// Whether the driver may evaluate a full step's trial point with its Jacobian
-    /// ([`LineSearchSystem::speculate_jacobians`]): not on the workspace sweep's path steps
-    /// ([`super::Solver::solve_ik_newton`]), where it cost time.
+    /// Whether the driver may evaluate a full step's trial point with its Jacobian and
+    /// end a run at a chord trial within the tolerance
+    /// ([`LineSearchSystem::speculate_jacobians`]): not on the workspace sweep's path
+    /// steps ([`super::Solver::solve_ik_newton`]).
     pub(super) speculate: bool,
+    /// Whether a run's expected last residual is prepared for the Jacobian at its
+    /// solution ([`LineSearchSystem::final_residual`]): `Some(true)` for its analysis
+    /// (with the legs' shapes, where q is within the actuation limits), `Some(false)`
+    /// for the next run's start.
+    pub(super) prepare: Option<bool>,
+    /// Buffer of the point of a prepared residual.
+    pub(super) final_point: Vec<f64>,
 }
 
 impl<'a> IkSystem<'a> {
@@ -154,6 +162,38 @@ impl LineSearchSystem for IkSystem<'_> {
 
     fn speculate_jacobians(&self) -> bool {
         self.speculate
+    }
+
+    fn prepares_final_residual(&self) -> bool {
+        self.prepare.is_some()
+    }
+
+    /// The residual at x with the tendon unknowns as the solution's state restates them
+    /// ([`as_restated`]): the legs' integration with sensitivities is then the one the
+    /// Jacobian at that state (its analysis, or the next solve's start) asks for.
+    fn final_residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
+        let nq = self.model.n_actuators();
+        // An analysis sees only solutions within the actuation limits.
+        let Some(shapes) = self
+            .prepare
+            .filter(|&analysis| !analysis || self.model.within_limits(&x[..nq]))
+        else {
+            return self.residual(x, r);
+        };
+        self.evaluated.count_evaluation(false);
+        let mut at = std::mem::take(&mut self.final_point);
+        at.clear();
+        at.extend_from_slice(x);
+        as_restated(self.model, &mut at[nq..]);
+        let result = boundary_residual_with_derivatives(
+            self.model,
+            self.boundary,
+            &self.point(&at),
+            shapes,
+            r,
+        );
+        self.final_point = at;
+        result
     }
 
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {

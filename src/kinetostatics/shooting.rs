@@ -15,12 +15,14 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use super::predictor::{
     LastSolve, PREDICTOR_POINTS, PathPoint, is_last_solution, predict, target_vector,
 };
-use super::state::RobotState;
+use super::state::{RobotState, as_restated};
 use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
-    boundary_derivatives_fd, boundary_residual, convert_tendon_unknowns, taut_tension_column,
+    boundary_derivatives_fd, boundary_residual, boundary_residual_with_derivatives,
+    convert_tendon_unknowns, taut_tension_column,
 };
+use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonSettings, NonlinearSystem, RowScales};
@@ -104,6 +106,7 @@ pub(super) fn run_with(
         one_sided_columns_used: Cell::new(0),
         taut: &mut solver.taut_columns,
         evaluated: NewtonReport::none(),
+        prepare: solver.prepare_for_analysis && scaled.is_none(),
     };
     // From the prediction if there is one; from the guess itself if that fails. Every
     // run's work, converged or not, goes to the solver's tally of the call.
@@ -231,6 +234,9 @@ struct ShootingSystem<'a> {
     taut: &'a mut TautColumns,
     /// The evaluations asked of this system so far (residual and Jacobian counts).
     evaluated: NewtonReport,
+    /// Whether a run's expected last residual is prepared for the analysis of its
+    /// solution ([`Solver::prepare_for_analysis`]).
+    prepare: bool,
 }
 
 /// The taut side's columns ∂b/∂τ_k of the tendons that were slack (ζ < 0) at the last
@@ -258,11 +264,28 @@ impl TautColumns {
     }
 }
 
-impl ShootingSystem<'_> {
+impl<'a> ShootingSystem<'a> {
     fn head(&self) -> usize {
         match self.problem {
             Problem::Forward { .. } => 6,
             Problem::Inverse { .. } => self.model.n_actuators(),
+        }
+    }
+
+    /// The pose and actuation of x.
+    fn pose_and_actuation<'x>(&self, x: &'x DVector<f64>) -> (Pose, &'x [f64])
+    where
+        'a: 'x,
+    {
+        match self.problem {
+            Problem::Forward { q } => (
+                Pose {
+                    position: Vector3::new(x[0], x[1], x[2]),
+                    rotation: *Rotation3::new(Vector3::new(x[3], x[4], x[5])).matrix(),
+                },
+                q,
+            ),
+            Problem::Inverse { pose } => (*pose, &x.as_slice()[..self.head()]),
         }
     }
 
@@ -275,16 +298,7 @@ impl ShootingSystem<'_> {
     ) -> Result<(), SolveError> {
         self.evaluated.count_evaluation(jac.is_some());
         let head = self.head();
-        let (pose, q): (Pose, &[f64]) = match self.problem {
-            Problem::Forward { q } => (
-                Pose {
-                    position: Vector3::new(x[0], x[1], x[2]),
-                    rotation: *Rotation3::new(Vector3::new(x[3], x[4], x[5])).matrix(),
-                },
-                q,
-            ),
-            Problem::Inverse { pose } => (*pose, &x.as_slice()[..head]),
-        };
+        let (pose, q) = self.pose_and_actuation(x);
         let p = BoundaryPoint {
             pose: &pose,
             q,
@@ -356,6 +370,37 @@ impl NonlinearSystem for ShootingSystem<'_> {
 
     fn row_scales(&self, c: &mut DVector<f64>) {
         row_scales(self.model, c);
+    }
+
+    fn prepares_final_residual(&self) -> bool {
+        self.prepare && self.method == JacobianMethod::Exact
+    }
+
+    /// The residual at x with the tendon unknowns as the solution's state restates them
+    /// ([`as_restated`]), integrated with the sensitivities (and shapes) the analysis of
+    /// that state asks for, where q is within the actuation limits (an analysis sees no
+    /// other solution).
+    fn final_residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
+        let head = self.head();
+        let (pose, q) = self.pose_and_actuation(x);
+        if !self.prepares_final_residual() || !self.model.within_limits(q) {
+            return self.residual(x, r);
+        }
+        self.evaluated.count_evaluation(false);
+        let mut y_u = [0.0; 3 * (6 + MAX_TENDONS)];
+        let y_u = &mut y_u[..x.len() - head];
+        y_u.copy_from_slice(&x.as_slice()[head..]);
+        as_restated(self.model, y_u);
+        let p = BoundaryPoint {
+            pose: &pose,
+            q,
+            wrench: self.wrench,
+            y_u,
+            tendon_unknown: SOLVER_TENDON_UNKNOWN,
+        };
+        self.boundary
+            .keep_slack_tension_directions(self.one_sided_kinks);
+        boundary_residual_with_derivatives(self.model, self.boundary, &p, true, r)
     }
 
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
@@ -512,6 +557,7 @@ mod tests {
                 one_sided_columns_used: Cell::new(0),
                 evaluated: NewtonReport::none(),
                 taut: &mut self.taut,
+                prepare: false,
             }
         }
     }

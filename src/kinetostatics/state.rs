@@ -61,6 +61,15 @@ impl RobotState {
     }
 }
 
+/// The solver's leg unknowns `y_u` (tendons in its ζ) as a state reports them (in γ)
+/// and a solve or an analysis of that state reads them back: ζ → γ → ζ, in place (the
+/// round trip can move them by round-off; the legs' starts from the result are those of
+/// the state's, bit for bit).
+pub(crate) fn as_restated(model: &Model, y_u: &mut [f64]) {
+    convert_tendon_unknowns(model, y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+    convert_tendon_unknowns(model, y_u, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
+}
+
 /// A converged solve.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Solution {

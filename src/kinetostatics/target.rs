@@ -51,6 +51,7 @@ pub(super) fn solve_target(
         Target::Inverse(pose) => {
             // Both step rules overwrite the blocks the tangent predictor reads.
             solver.last = None;
+            let prepare = prepare_redundant(solver, scaled.is_some(), &guess);
             let mut system = IkSystem {
                 model: scaled.unwrap_or(&solver.model),
                 boundary: &mut solver.boundary,
@@ -59,6 +60,8 @@ pub(super) fn solve_target(
                 wrench,
                 evaluated: NewtonReport::none(),
                 speculate: solver.speculate_trials,
+                prepare,
+                final_point: Vec::new(),
             };
             let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {
@@ -84,9 +87,45 @@ pub(super) fn solve_target(
                 Err(e) => NewtonReport::of_failed_run(e, &system.evaluated),
             };
             solver.work.add_work(&work);
+            match &result {
+                Ok((state, _)) if scaled.is_none() => {
+                    let (q, y_u) = solver.last_redundant.get_or_insert_default();
+                    q.clone_from(&state.q);
+                    y_u.clone_from(&state.y_u);
+                }
+                _ => solver.last_redundant = None,
+            }
             result
         }
     }
+}
+
+/// Whether a run of the redundant IK from `guess` prepares its last residual for a
+/// Jacobian at its solution (`Some(shapes)`), and with the legs' shapes: for the
+/// analysis that follows each solution ([`Solver::prepare_for_analysis`]), or where
+/// the run starts from the solver's last solution (a path, whose next step will start
+/// from this run's solution with a Jacobian there; not with
+/// [`Solver::reuse_least_norm_factorization`], whose runs start with chord steps, nor
+/// towards a reference, whose runs start from it). Never on a scaled model (a
+/// continuation of the loads).
+fn prepare_redundant(solver: &Solver, scaled: bool, guess: &RobotState) -> Option<bool> {
+    if scaled {
+        return None;
+    }
+    if solver.prepare_for_analysis {
+        return Some(true);
+    }
+    let path_step = solver
+        .last_redundant
+        .as_ref()
+        .is_some_and(|(q, y_u)| *q == guess.q && *y_u == guess.y_u);
+    let starts_with_jacobian = match &solver.redundancy {
+        Redundancy::LeastNorm => !solver.reuse_least_norm_factorization,
+        Redundancy::WithinLimits(objective) => {
+            !matches!(objective, super::redundant::Objective::ClosestTo(_))
+        }
+    };
+    (path_step && starts_with_jacobian).then_some(false)
 }
 
 /// Newton from `guess` on `problem` with the solver's model and `settings`.
@@ -98,4 +137,135 @@ pub(super) fn run(
     guess: RobotState,
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     run_with(solver, None, settings, problem, wrench, guess)
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector3;
+
+    use super::*;
+    use crate::Tdpcr;
+    use crate::analysis::AnalysisSettings;
+    use crate::kinetostatics::Solution;
+
+    fn solver(design: &str) -> Solver {
+        let file = format!("{}/designs/{design}.ron", env!("CARGO_MANIFEST_DIR"));
+        Solver::new(&Tdpcr::from_ron_file(&file).expect("bundled design")).expect("valid")
+    }
+
+    /// The FK solution at q = 0.
+    fn solution_at_zero(s: &mut Solver) -> RobotState {
+        let q = vec![0.0; s.model.n_actuators()];
+        s.solve_fk(&q, &Wrench::default(), None).unwrap().state
+    }
+
+    /// `steps` warm IK solves of 1 mm, back and forth along x from the solution at q = 0,
+    /// each from the last solution (or, with `fresh`, after the solver forgot its last
+    /// solves): the states, reports and the legs' integrations (with or without
+    /// sensitivities) the solves took.
+    fn path(s: &mut Solver, steps: usize, fresh: bool) -> (Vec<Solution>, usize) {
+        let w = Wrench::default();
+        let mut last = solution_at_zero(s);
+        let start = last.pose();
+        let before = s.boundary.integrations();
+        let mut solutions = Vec::new();
+        for k in 0..steps {
+            if fresh {
+                s.forget_jacobian();
+            }
+            let pose = Pose {
+                position: start.position + Vector3::new(1e-3 * ((k + 1) % 2) as f64, 0.0, 0.0),
+                ..start
+            };
+            let solution = s.solve_ik(&pose, &w, Some(&last)).unwrap();
+            last = solution.state.clone();
+            solutions.push(solution);
+        }
+        (solutions, s.boundary.integrations() - before)
+    }
+
+    /// A warm IK of the redundant design from the solver's last solution starts with the
+    /// integration its predecessor's last residual prepared: the same solutions and
+    /// reports, fewer integrations.
+    #[test]
+    fn a_redundant_path_step_starts_from_the_prepared_integration() {
+        let mut rules = vec![Redundancy::LeastNorm];
+        #[cfg(feature = "qp")]
+        rules.push(Redundancy::WithinLimits(
+            super::super::redundant::Objective::LeastChange,
+        ));
+        for rule in rules {
+            let run = |fresh: bool| {
+                let mut s = solver("lilge2022_redundant");
+                s.redundancy = rule.clone();
+                path(&mut s, 12, fresh)
+            };
+            let (prepared, integrations) = run(false);
+            let (plain, plain_integrations) = run(true);
+            for (a, b) in prepared.iter().zip(&plain) {
+                assert_eq!(a.state, b.state, "{rule:?}");
+                // The same work; the last residual's norm is that of the point the state
+                // restates (within round-off of the last iterate).
+                let (x, y) = (a.report, b.report);
+                assert_eq!(
+                    (x.iterations, x.residual_evaluations, x.jacobian_evaluations),
+                    (y.iterations, y.residual_evaluations, y.jacobian_evaluations),
+                    "{rule:?}"
+                );
+                assert!(
+                    x.residual_norm.max(y.residual_norm) <= 1e-10,
+                    "{x:?}, {y:?}"
+                );
+            }
+            assert!(
+                integrations < plain_integrations,
+                "{rule:?}: {integrations} integrations, {plain_integrations} without"
+            );
+        }
+    }
+
+    /// A solver prepared for analysis (the workspace sweep's) gives the same solutions,
+    /// analyses and shapes as one without, with fewer integrations (steps of 0.2 mm, so
+    /// that the chord steps from the last solution's Jacobian contract well enough for
+    /// the last residual to be predicted).
+    #[test]
+    fn solves_prepared_for_analysis_change_nothing_but_their_integrations() {
+        for design in ["lilge2022", "lilge2022_redundant"] {
+            let run = |prepare: bool| {
+                let mut s = solver(design);
+                s.prepare_for_analysis(prepare);
+                let w = Wrench::default();
+                let mut last = solution_at_zero(&mut s);
+                let start = last.pose();
+                let before = s.boundary.integrations();
+                let mut results = Vec::new();
+                for k in 1..=8 {
+                    let pose = Pose {
+                        position: start.position + Vector3::new(2e-4 * k as f64, 0.0, 0.0),
+                        ..start
+                    };
+                    let solution = s.solve_ik_newton(&pose, &w, &last).unwrap();
+                    // As the sweep analyses each solution and starts the next step from
+                    // its Jacobian.
+                    s.record_shapes(true);
+                    let analysis = s
+                        .analyze(&solution.state, &w, &AnalysisSettings::default())
+                        .unwrap();
+                    let shapes = format!("{:?}", s.shapes());
+                    s.record_shapes(false);
+                    s.reuse_blocks_for_ik(&solution.state);
+                    last = solution.state.clone();
+                    results.push((solution.state, analysis, shapes));
+                }
+                (results, s.boundary.integrations() - before)
+            };
+            let (prepared, integrations) = run(true);
+            let (plain, plain_integrations) = run(false);
+            assert_eq!(prepared, plain, "{design}");
+            assert!(
+                integrations < plain_integrations,
+                "{design}: {integrations} integrations, {plain_integrations} without"
+            );
+        }
+    }
 }

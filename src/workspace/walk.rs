@@ -106,6 +106,9 @@ impl Worker {
         solver.settings.max_iterations = settings.max_iterations;
         solver.redundancy = settings.redundancy.clone();
         solver.one_sided_kinks = settings.one_sided_kinks;
+        // Every solution within the limits is analysed (`classify`): its Newton run's
+        // expected last residual integrates what that analysis needs.
+        solver.prepare_for_analysis(true);
         let collisions = CollisionChecker::new(solver.model());
         let jacobians = JacobianHistory::new(solver.model());
         Ok(Self {
