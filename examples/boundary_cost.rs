@@ -33,6 +33,8 @@ fn main() {
     let kind = args.get(2).map(String::as_str).unwrap_or("exact");
     let repetitions: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(200);
     for _ in 0..repetitions {
+        // Every evaluation integrates (one at the last one's leg starts would reuse it).
+        sc.forget_integration();
         match kind {
             "none" => {}
             "residual" => boundary_residual(&model, &mut sc, &p, &mut r).unwrap(),

@@ -158,6 +158,13 @@ impl BoundaryScratch {
         }
     }
 
+    /// Forgets the last integration with sensitivities: the next evaluation integrates
+    /// the legs whatever its point (a benchmark of one evaluation at a fixed point, or
+    /// the work of fresh buffers).
+    pub fn forget_integration(&mut self) {
+        self.integrated = None;
+    }
+
     /// How many times these buffers integrated the three legs, with or without
     /// sensitivities ([`boundary_residual`], [`boundary_derivatives`] and
     /// [`boundary_residual_with_derivatives`] integrate at most once per call; an
@@ -706,6 +713,8 @@ pub fn boundary_derivatives_fd(
     r: &mut DVector<f64>,
     jac: &mut BoundaryJacobians,
 ) -> Result<(), SolveError> {
+    // The baseline integrates everything itself.
+    sc.forget_integration();
     boundary_residual(model, sc, p, r)?;
     sc.base.copy_from(r);
     let pick = |s: (f64, f64)| match method {

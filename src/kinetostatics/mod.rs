@@ -404,8 +404,11 @@ impl Solver {
     /// Forgets the last solve's Jacobian, so the next solve neither reuses it
     /// ([`Solver::reuse_jacobian`], [`Solver::reuse_blocks_for_ik`]) nor predicts from
     /// it: its result then depends only on its guess and target, bit for bit as a fresh
-    /// solver's (e.g. each ray of a parallel sweep, whatever the worker solved before).
+    /// solver's (e.g. each ray of a parallel sweep, whatever the worker solved before),
+    /// and so does its work (the legs' last integration is forgotten too, see
+    /// [`BoundaryScratch::forget_integration`]).
     pub fn forget_jacobian(&mut self) {
+        self.boundary.forget_integration();
         self.newton_system = None;
         self.seeded = false;
         self.last = None;

@@ -83,9 +83,25 @@ impl<T: Real> RodState<T> {
 
     /// self = y + Σ_j c_j k_j over R, v, u, the parts that feed back into the right-hand
     /// side (a stage input: p and s are not needed), the terms in order, a product then a
-    /// sum each (no fused multiply–add).
+    /// sum each (no fused multiply–add). At most `MAX_STAGES` − 1 terms, dispatched on
+    /// their number to an unrolled loop (as [`Tangents::add_kept`](super::tangents::Tangents::add_kept)).
     #[inline(always)]
     pub fn set_stage_input(&mut self, y: &Self, terms: &[(f64, &Self)]) {
+        match terms.len() {
+            0 => (self.r, self.v, self.u) = (y.r, y.v, y.u),
+            1 => self.set_stage_input_terms::<1>(y, terms),
+            2 => self.set_stage_input_terms::<2>(y, terms),
+            3 => self.set_stage_input_terms::<3>(y, terms),
+            4 => self.set_stage_input_terms::<4>(y, terms),
+            5 => self.set_stage_input_terms::<5>(y, terms),
+            n => unreachable!("{n} stage-input terms: more than a tableau has"),
+        }
+    }
+
+    /// [`RodState::set_stage_input`] of exactly `C` terms.
+    #[inline(always)]
+    fn set_stage_input_terms<const C: usize>(&mut self, y: &Self, terms: &[(f64, &Self)]) {
+        let terms: &[(f64, &Self); C] = terms.try_into().expect("C terms");
         // One component at a time: R, v and u together would not fit in the registers.
         macro_rules! combine {
             ($field:ident) => {{

@@ -68,9 +68,29 @@ impl Tangents {
     /// Adds Σ_j c_j k_j to the first `N` lanes of the R, v, u rows (the terms in order,
     /// fused multiply–adds): the earlier stages' terms of a stage input. Each k_j is given
     /// by its [`FEEDBACK_ROWS`] rows of `N` lanes, row after row (as
-    /// [`RkEmit`](crate::rod::rhs::RkEmit) keeps them).
+    /// [`RkEmit`](crate::rod::rhs::RkEmit) keeps them). At most `MAX_STAGES` − 1 terms.
+    ///
+    /// Dispatched on the number of terms to a loop unrolled at compile time: the loop
+    /// over a run-time list cost a pointer load, a bounds check and a broadcast per term
+    /// and row around two vector FMAs (the exact Jacobian −8 % instructions without it,
+    /// BENCHMARKS.md "Stage inputs with the term count fixed at compile time").
     #[inline(always)]
     pub fn add_kept<const N: usize>(&mut self, terms: &[(f64, &[f64])]) {
+        match terms.len() {
+            0 => {}
+            1 => self.add_kept_terms::<N, 1>(terms),
+            2 => self.add_kept_terms::<N, 2>(terms),
+            3 => self.add_kept_terms::<N, 3>(terms),
+            4 => self.add_kept_terms::<N, 4>(terms),
+            5 => self.add_kept_terms::<N, 5>(terms),
+            n => unreachable!("{n} stage-input terms: more than a tableau has"),
+        }
+    }
+
+    /// [`Tangents::add_kept`] of exactly `T` terms.
+    #[inline(always)]
+    fn add_kept_terms<const N: usize, const T: usize>(&mut self, terms: &[(f64, &[f64])]) {
+        let terms: &[(f64, &[f64]); T] = terms.try_into().expect("T terms");
         for index in 0..FEEDBACK_ROWS {
             let out = match index {
                 0..9 => &mut self.r[index],
@@ -80,7 +100,7 @@ impl Tangents {
             let mut acc = [0.0; N];
             acc.copy_from_slice(&out[..N]);
             for &(c, k) in terms {
-                let k = &k[index * N..(index + 1) * N];
+                let k: &[f64; N] = k[index * N..(index + 1) * N].try_into().expect("N lanes");
                 for j in 0..N {
                     acc[j] = fma(c, k[j], acc[j]);
                 }
