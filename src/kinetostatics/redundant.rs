@@ -27,11 +27,11 @@ use nalgebra::{DMatrix, DVector};
 
 use super::SOLVER_TENDON_UNKNOWN;
 use super::least_change::{LeastChange, scaled_step_matrix};
-use super::shooting::{row_scales, row_weights};
-use super::state::{RobotState, as_restated};
+use super::shooting::{restated_residual, row_scales, row_weights};
+use super::state::RobotState;
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives, boundary_residual,
-    boundary_residual_with_derivatives, convert_tendon_unknowns,
+    convert_tendon_unknowns,
 };
 use crate::error::{SolveError, StopReason};
 use crate::model::{Model, Pose};
@@ -92,8 +92,6 @@ pub(super) struct IkSystem<'a> {
     /// (with the legs' shapes, where q is within the actuation limits), `Some(false)`
     /// for the next run's start.
     pub(super) prepare: Option<bool>,
-    /// Buffer of the point of a prepared residual.
-    pub(super) final_point: Vec<f64>,
 }
 
 impl<'a> IkSystem<'a> {
@@ -169,8 +167,8 @@ impl LineSearchSystem for IkSystem<'_> {
     }
 
     /// The residual at x with the tendon unknowns as the solution's state restates them
-    /// ([`as_restated`]): the legs' integration with sensitivities is then the one the
-    /// Jacobian at that state (its analysis, or the next solve's start) asks for.
+    /// ([`restated_residual`]): the legs' integration with sensitivities is then the one
+    /// the Jacobian at that state (its analysis, or the next solve's start) asks for.
     fn final_residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
         let nq = self.model.n_actuators();
         // An analysis sees only solutions within the actuation limits.
@@ -181,19 +179,8 @@ impl LineSearchSystem for IkSystem<'_> {
             return self.residual(x, r);
         };
         self.evaluated.count_evaluation(false);
-        let mut at = std::mem::take(&mut self.final_point);
-        at.clear();
-        at.extend_from_slice(x);
-        as_restated(self.model, &mut at[nq..]);
-        let result = boundary_residual_with_derivatives(
-            self.model,
-            self.boundary,
-            &self.point(&at),
-            shapes,
-            r,
-        );
-        self.final_point = at;
-        result
+        let at = (self.pose, &x[..nq], self.wrench);
+        restated_residual(self.model, self.boundary, at, &x[nq..], shapes, r)
     }
 
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {

@@ -387,20 +387,17 @@ impl NonlinearSystem for ShootingSystem<'_> {
             return self.residual(x, r);
         }
         self.evaluated.count_evaluation(false);
-        let mut y_u = [0.0; 3 * (6 + MAX_TENDONS)];
-        let y_u = &mut y_u[..x.len() - head];
-        y_u.copy_from_slice(&x.as_slice()[head..]);
-        as_restated(self.model, y_u);
-        let p = BoundaryPoint {
-            pose: &pose,
-            q,
-            wrench: self.wrench,
-            y_u,
-            tendon_unknown: SOLVER_TENDON_UNKNOWN,
-        };
         self.boundary
             .keep_slack_tension_directions(self.one_sided_kinks);
-        boundary_residual_with_derivatives(self.model, self.boundary, &p, true, r)
+        let at = (&pose, q, self.wrench);
+        restated_residual(
+            self.model,
+            self.boundary,
+            at,
+            &x.as_slice()[head..],
+            true,
+            r,
+        )
     }
 
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
@@ -473,6 +470,32 @@ impl NonlinearSystem for ShootingSystem<'_> {
         // The kink is at ζ = 0.
         Some(z)
     }
+}
+
+/// [`boundary_residual_with_derivatives`] at the pose, actuation and wrench `at` and the
+/// solver's leg unknowns `y_u` as the solution's state restates them ([`as_restated`]):
+/// the legs' starts are then those of that state's Jacobian (its analysis, or the next
+/// solve from it), bit for bit. The prepared last residual of both Newton systems.
+pub(super) fn restated_residual(
+    model: &Model,
+    boundary: &mut BoundaryScratch,
+    (pose, q, wrench): (&Pose, &[f64], &Wrench),
+    y_u: &[f64],
+    shapes: bool,
+    r: &mut DVector<f64>,
+) -> Result<(), SolveError> {
+    let mut restated = [0.0; 3 * (6 + MAX_TENDONS)];
+    let restated = &mut restated[..y_u.len()];
+    restated.copy_from_slice(y_u);
+    as_restated(model, restated);
+    let p = BoundaryPoint {
+        pose,
+        q,
+        wrench,
+        y_u: restated,
+        tendon_unknown: SOLVER_TENDON_UNKNOWN,
+    };
+    boundary_residual_with_derivatives(model, boundary, &p, shapes, r)
 }
 
 /// x ⊕ step in the unknowns of `problem`: FK rotations compose, R ← exp(δθ^) R.

@@ -61,7 +61,6 @@ pub(super) fn solve_target(
                 evaluated: NewtonReport::none(),
                 speculate: solver.speculate_trials,
                 prepare,
-                final_point: Vec::new(),
             };
             let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {
