@@ -123,6 +123,9 @@ pub struct NalgebraCholesky {
 impl NalgebraCholesky {
     /// Factors `s` (only its lower triangle is read); `None` when a pivot is not > 0
     /// (S not positive definite to working precision, or not finite).
+    ///
+    /// # Panics
+    /// If `s` is not square.
     pub fn new(mut s: DMatrix<f64>) -> Option<Self> {
         let n = s.nrows();
         assert_eq!(n, s.ncols(), "NalgebraCholesky::new: matrix not square");
