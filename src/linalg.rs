@@ -149,8 +149,16 @@ impl NalgebraCholesky {
     }
 
     /// Solves S x = b in place: L y = b by columns, then Lᵀ x = y by [`nalgebra_dot`].
+    ///
+    /// # Panics
+    /// If `b` does not have n entries.
     pub fn solve_in_place(&self, b: &mut [f64]) {
         let n = self.l.nrows();
+        assert_eq!(
+            b.len(),
+            n,
+            "NalgebraCholesky::solve_in_place: b has the wrong length"
+        );
         let columns = || self.l.as_slice().chunks_exact(n);
         for (i, column) in columns().enumerate() {
             let coeff = b[i] / column[i];
@@ -209,7 +217,11 @@ fn subtract_columns_inline(left: &[f64], col_j: &mut [f64], n: usize, j: usize) 
 /// The dot product of `a` and `b` by nalgebra's summation for dynamic vectors (`dot`,
 /// `dotc`, `norm`: eight partial sums over blocks of eight, combined pairwise, then the
 /// remainder in order), so that it equals nalgebra's bit for bit.
+///
+/// # Panics
+/// If `a` and `b` differ in length (as nalgebra's `dot` does).
 pub fn nalgebra_dot(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "nalgebra_dot: lengths differ");
     let mut acc = [0.0f64; 8];
     let (blocks_a, blocks_b) = (a.chunks_exact(8), b.chunks_exact(8));
     let (rest_a, rest_b) = (blocks_a.remainder(), blocks_b.remainder());
