@@ -267,6 +267,30 @@ mod tests {
         }
     }
 
+    /// Whether two sequences of values are the same bit for bit.
+    fn same_bits<'a>(
+        x: impl IntoIterator<Item = &'a f64>,
+        y: impl IntoIterator<Item = &'a f64>,
+    ) -> bool {
+        x.into_iter()
+            .zip(y)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+
+    /// The former factorization, by nalgebra's own operations: the columns of `a`
+    /// scaled (0 where fixed, 1/√p else), times the copied transpose, `Cholesky::new`.
+    fn nalgebra_factor(
+        a: &DMatrix<f64>,
+        p: &[f64],
+        fixed: &[bool],
+    ) -> nalgebra::Cholesky<f64, nalgebra::Dyn> {
+        let mut a_scaled = a.clone();
+        for (j, mut col) in a_scaled.column_iter_mut().enumerate() {
+            col.scale_mut(if fixed[j] { 0.0 } else { 1.0 / p[j].sqrt() });
+        }
+        nalgebra::Cholesky::new(&a_scaled * a_scaled.transpose()).unwrap()
+    }
+
     #[test]
     fn the_scaled_step_matrix_is_the_one_of_nalgebras_column_operations() {
         let (m, nq, ny) = (36, 9, 30);
@@ -298,11 +322,7 @@ mod tests {
             assert_eq!(y_scale[j].to_bits(), s.to_bits());
         }
         assert_eq!(y_scale[4], 1.0);
-        assert!(
-            a.iter()
-                .zip(expected.iter())
-                .all(|(x, y)| x.to_bits() == y.to_bits())
-        );
+        assert!(same_bits(a.iter(), expected.iter()));
     }
 
     #[test]
@@ -316,17 +336,8 @@ mod tests {
         fixed[3] = true;
         let factor = LeastChange::factor(&a, &p, &fixed).unwrap();
         // The former construction: a scaled copy times its copied transpose.
-        let mut a_scaled = a.clone();
-        for (j, mut col) in a_scaled.column_iter_mut().enumerate() {
-            col.scale_mut(if fixed[j] { 0.0 } else { 1.0 / p[j].sqrt() });
-        }
-        let expected = nalgebra::Cholesky::new(&a_scaled * a_scaled.transpose()).unwrap();
-        let (l, l_expected) = (factor.s.l(), expected.l());
-        assert!(
-            l.iter()
-                .zip(l_expected.iter())
-                .all(|(x, y)| x.to_bits() == y.to_bits())
-        );
+        let expected = nalgebra_factor(&a, &p, &fixed);
+        assert!(same_bits(factor.s.l().iter(), expected.l().iter()));
     }
 
     #[test]
@@ -349,11 +360,7 @@ mod tests {
             .solve(&a, &p, &c, &b, &values)
             .unwrap();
         // The former computation, with nalgebra's own operations throughout.
-        let mut a_scaled = a.clone();
-        for (j, mut col) in a_scaled.column_iter_mut().enumerate() {
-            col.scale_mut(if fixed[j] { 0.0 } else { 1.0 / p[j].sqrt() });
-        }
-        let chol = nalgebra::Cholesky::new(&a_scaled * a_scaled.transpose()).unwrap();
+        let chol = nalgebra_factor(&a, &p, &fixed);
         let mut rhs = DVector::from_iterator(m, b.iter().map(|v| -v));
         for j in 0..n {
             let coefficient = if fixed[j] { values[j] } else { -c[j] / p[j] };
@@ -370,13 +377,8 @@ mod tests {
                 -(c[j] + at_lambda[j]) / p[j]
             }
         });
-        let same = |x: &DVector<f64>, y: &DVector<f64>| {
-            x.iter()
-                .zip(y.iter())
-                .all(|(a, b)| a.to_bits() == b.to_bits())
-        };
-        assert!(same(&lambda, &rhs));
-        assert!(same(&z, &expected_z));
+        assert!(same_bits(lambda.iter(), rhs.iter()));
+        assert!(same_bits(z.iter(), expected_z.iter()));
     }
 
     #[test]
