@@ -11,22 +11,26 @@
 //! new b ([`LeastChange::solve`]) costs two triangular solves, and [`FactorCache`] keeps
 //! the last one for a QP that repeats.
 //!
-//! The arithmetic is nalgebra's, bit for bit (tests compare): S is nalgebra's product
-//! (matrixmultiply) of the scaled A and a strided view of its transpose, factored by
-//! [`NalgebraCholesky`], nalgebra's algorithm on contiguous slices. Per warm
-//! within-limits step of the 9-DoF design (callgrind, three step matrices, two
-//! factorizations, three solves) the step rule's algebra went from 541 k to 366 k
-//! instructions with that and [`scaled_step_matrix`] on slices (2026-11-26).
+//! The arithmetic is nalgebra's, bit for bit (tests compare): S is summed as
+//! matrixmultiply's FMA kernels sum nalgebra's product of the scaled A and its transpose
+//! ([`scaled_gram_lower`], which skips the products of the zero blocks: a leg's columns
+//! touch only its own rows and the platform's), factored by [`NalgebraCholesky`],
+//! nalgebra's algorithm on contiguous slices. Per warm within-limits step of the 9-DoF
+//! design (callgrind, three step matrices, two factorizations, three solves) the step
+//! rule's algebra went from 541 k to 366 k instructions with [`NalgebraCholesky`] and
+//! [`scaled_step_matrix`] on slices (2026-11-26). S by tiles instead of matrixmultiply's
+//! dense product: 2.9 → 1.9 µs a product, the warm step within the limits 157–159 →
+//! 147–150 µs, least-norm 147–152 → 138–141 µs (interleaved, 2026-11-26, sixth session).
 //!
 //! Tried and dropped (2026-11-26): S summed by columns and factored by a hand-written
 //! AVX2 Cholesky of another summation order. Per factorization it took about the time
 //! of nalgebra's product and Cholesky, and its round-off moved the 9-DoF sweeps' maps
 //! (0.3 % of the cells, on other branches near folds).
 
-use nalgebra::{DMatrix, DMatrixView, DVector};
+use nalgebra::{DMatrix, DVector};
 
 use crate::boundary::BoundaryJacobians;
-use crate::linalg::{NalgebraCholesky, nalgebra_dot};
+use crate::linalg::{NalgebraCholesky, nalgebra_dot, scaled_gram_lower};
 
 /// The constraint matrix of a step in scaled variables, A = W \[B_q U, B_u S\], and S:
 /// rows weighted by `weights` (W), the q columns in `q_units` (U: 1 for metres, the
@@ -75,18 +79,12 @@ impl LeastChange {
     /// marked in `fixed` (n flags); `None` when S is not positive definite to working
     /// precision (A_f without full row rank).
     pub(super) fn factor(a: &DMatrix<f64>, p: &[f64], fixed: &[bool]) -> Option<Self> {
-        let (m, n) = a.shape();
-        let mut data = Vec::with_capacity(m * n);
-        for ((col, &fixed), &p) in a.as_slice().chunks_exact(m).zip(fixed).zip(p) {
-            let s = if fixed { 0.0 } else { 1.0 / p.sqrt() };
-            data.extend(col.iter().map(|x| x * s));
-        }
-        let a_scaled = DMatrix::from_vec(m, n, data);
-        // Its transpose as a strided view, not a copy: matrixmultiply packs both operands
-        // before it multiplies, so the product is the one of the copied transpose, bit
-        // for bit.
-        let transposed = DMatrixView::from_slice_with_strides(a_scaled.as_slice(), n, m, m, 1);
-        let s = NalgebraCholesky::new(&a_scaled * transposed)?;
+        let scales: Vec<f64> = fixed
+            .iter()
+            .zip(p)
+            .map(|(&fixed, &p)| if fixed { 0.0 } else { 1.0 / p.sqrt() })
+            .collect();
+        let s = NalgebraCholesky::new(scaled_gram_lower(a, &scales))?;
         Some(Self {
             s,
             fixed: fixed.to_vec(),
@@ -327,6 +325,10 @@ mod tests {
 
     #[test]
     fn the_factor_is_the_one_of_the_copied_transpose_bit_for_bit() {
+        if !crate::linalg::matrixmultiply_fuses() {
+            // nalgebra's product then rounds each term apart: no bitwise reference.
+            return;
+        }
         let (m, n) = (36, 39);
         let a = DMatrix::from_fn(m, n, |i, j| {
             (((i + 2) * (j + 7)) % 29) as f64 * 0.11 - 1.5 + if i == j % m { 4.0 } else { 0.0 }
@@ -342,6 +344,10 @@ mod tests {
 
     #[test]
     fn the_solution_is_the_one_of_nalgebras_operations_bit_for_bit() {
+        if !crate::linalg::matrixmultiply_fuses() {
+            // nalgebra's product then rounds each term apart: no bitwise reference.
+            return;
+        }
         let (m, n) = (36, 45);
         let a = DMatrix::from_fn(m, n, |i, j| {
             (((i + 5) * (j + 3)) % 37) as f64 * 0.09 - 1.6 + if i == j { 3.0 } else { 0.0 }
