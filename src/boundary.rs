@@ -193,6 +193,14 @@ impl BoundaryScratch {
         self.evaluations
     }
 
+    /// Adds the evaluations of `other` (buffers a solve used beside these, e.g. for a
+    /// check that must leave these buffers' last integration as it was) to these
+    /// buffers' tally ([`BoundaryScratch::evaluations`]).
+    pub(crate) fn count_evaluations_of(&mut self, other: &BoundaryScratch) {
+        self.evaluations[0] += other.evaluations[0];
+        self.evaluations[1] += other.evaluations[1];
+    }
+
     /// Starts (or stops) recording every leg's frames at its disks in each exact
     /// evaluation ([`boundary_derivatives`]), at the cost of a partial step (primal only)
     /// to each disk inside an integration step, about one residual evaluation for the

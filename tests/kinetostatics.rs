@@ -546,3 +546,81 @@ fn the_blocks_of_an_analysis_start_the_next_ik_step() {
     let dq = max_q_difference(&seeded.state, &fresh.state);
     assert!(dq < 1e-10, "q differs by {dq:.2e} m");
 }
+
+#[test]
+fn cold_fk_ends_at_a_stable_equilibrium_where_newton_from_straight_legs_finds_an_unstable_one() {
+    // Three seeded reachable draws of the ψ = 0 design (`sampling::seeded_reachable_actuations`,
+    // seed 42: draws 3, 8 and 21) where Newton from the straight guess converges to an
+    // unstable equilibrium (before 2026-11-26 the cold FK returned it for draws 3 and 21);
+    // the platform position of each on the branch from q = 0, where the ramp goes.
+    let draws = [
+        (
+            [
+                0.0038835514864212217,
+                0.08230470277809979,
+                0.0068103296417505385,
+            ],
+            [
+                0.07659215708826289,
+                0.005643125782877083,
+                0.0762095386442079,
+            ],
+            [
+                0.016369885187249814,
+                0.0028491101993725165,
+                -0.08633694754424935,
+            ],
+        ),
+        (
+            [
+                0.0034580410553494835,
+                0.05006483322237755,
+                0.006703903791703263,
+            ],
+            [
+                0.0754254668128517,
+                0.0063361017251020255,
+                0.04746855261174367,
+            ],
+            [
+                0.013552202718101487,
+                0.014764184481939566,
+                -0.06849795556522668,
+            ],
+        ),
+        (
+            [
+                0.0026623531173862094,
+                0.050433039053946825,
+                0.00539647535149985,
+            ],
+            [
+                0.0466203082162972,
+                0.009158787341173476,
+                0.04649312987141559,
+            ],
+            [
+                0.010831222046573467,
+                0.03155739398934482,
+                -0.04871230778243334,
+            ],
+        ),
+    ];
+    let mut s = solver("lilge2022_psi0.ron");
+    let w = Wrench::default();
+    for (head, tail, branch) in draws {
+        let q: Vec<f64> = head.iter().chain(&tail).copied().collect();
+        let solution = s.solve_fk(&q, &w, None).unwrap();
+        let analysis = s.analyze(&solution.state, &w, &Default::default()).unwrap();
+        assert!(
+            analysis.stability.stable,
+            "q = {q:?}: eigenvalues {:?}",
+            analysis.stability.eigenvalues
+        );
+        let position = Vector3::from(solution.state.position);
+        assert!(
+            (position - Vector3::from(branch)).norm() < 1e-6,
+            "q = {q:?}: at {position:?}"
+        );
+    }
+}

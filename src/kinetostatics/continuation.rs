@@ -3,13 +3,15 @@
 //! homotopy from the unloaded straight home (every tendon taut under an auxiliary
 //! pretension) to the full loads (MODEL.md §9).
 
-use nalgebra::Rotation3;
+use nalgebra::{DVector, Rotation3};
 
 use super::Solver;
 use super::home::{home_guess, straight_leg_pose, straight_leg_translations};
 use super::shooting::Problem;
 use super::state::RobotState;
 use super::target::{Target, run, solve_target};
+use crate::analysis::{AnalysisSettings, condition_blocks};
+use crate::boundary::{BoundaryJacobians, BoundaryScratch, boundary_derivatives};
 use crate::error::{SolveError, StopReason};
 use crate::model::Pose;
 use crate::newton::{NewtonReport, NewtonSettings};
@@ -32,12 +34,22 @@ enum Loads {
     FromUnloaded { pretension: f64 },
 }
 
-/// Cold FK: Newton from the straight guess; if that fails, q is ramped from the solved
-/// q = 0 configuration; last, continuation from the unloaded straight home. Where one
-/// q has several equilibria (e.g. legs buckled one way or the other under large base
-/// translations), this returns the one Newton reaches from the straight guess, not
-/// necessarily the one a robot moved there from home is in: warm-start from a known
-/// state (or follow a trajectory) to stay on a branch.
+/// The window of the cold FK's direct run's nonmonotone acceptance
+/// ([`NewtonScratch::nonmonotone_once`](crate::newton::NewtonScratch::nonmonotone_once)):
+/// over the 30 seeded reachable draws of each bundled parallel design (`cold_fk_stats`),
+/// median iterations 27 → 17 (9-DoF), 51 → 16 (9-DoF, ψ = 0), 10 → 10 and 11 → 11
+/// (6-DoF) against the monotone test (BENCHMARKS.md).
+const COLD_FK_NONMONOTONE_WINDOW: usize = 5;
+
+/// Cold FK: Newton from the straight guess, accepting steps by a nonmonotone test
+/// ([`COLD_FK_NONMONOTONE_WINDOW`]); if that fails or ends at an unstable equilibrium
+/// (the analysis' [`Stability`](crate::analysis::Stability), actuators held), q is ramped
+/// from the solved q = 0 configuration; last, continuation from the unloaded straight
+/// home (the direct run's unstable equilibrium is returned only where both fail). Where
+/// one q has several stable equilibria (e.g. legs buckled one way or the other under
+/// large base translations), this returns the one Newton reaches from the straight
+/// guess, not necessarily the one a robot moved there from home is in: warm-start from a
+/// known state (or follow a trajectory) to stay on a branch.
 pub(super) fn cold_fk(
     solver: &mut Solver,
     settings: &NewtonSettings,
@@ -46,9 +58,12 @@ pub(super) fn cold_fk(
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let pose = straight_leg_pose(&solver.model, q);
     let guess = solver.home_guess(&pose, q, wrench);
+    solver.newton.nonmonotone_once(COLD_FK_NONMONOTONE_WINDOW);
     let direct = run(solver, settings, Problem::Forward { q }, wrench, guess);
-    if direct.is_ok() {
-        return direct;
+    if let Ok((state, _)) = &direct {
+        if !unstable(solver, state, wrench) {
+            return direct;
+        }
     }
     // Ramp q from the solved q = 0 configuration under the same loads.
     let zero = vec![0.0; q.len()];
@@ -76,6 +91,35 @@ pub(super) fn cold_fk(
         Target::Forward(q_final.iter().map(|x| x * lambda).collect())
     })
     .or(direct)
+}
+
+/// Whether `state` is an equilibrium under the total `wrench` that the analysis calls
+/// unstable (false where its blocks or analysis fail: nothing is known). It is evaluated
+/// in buffers of its own, so the solver's (the blocks the next warm start's predictor
+/// reads, the legs' last integration a prepared solve left for the next Jacobian) stay
+/// as the solve left them; the evaluation counts as one residual and Jacobian of the
+/// call's work.
+fn unstable(solver: &mut Solver, state: &RobotState, wrench: &Wrench) -> bool {
+    let model = &solver.model;
+    let (mut boundary, mut blocks) = (BoundaryScratch::new(model), BoundaryJacobians::new(model));
+    let mut r = DVector::zeros(model.n_residuals());
+    let pose = state.pose();
+    let evaluated = boundary_derivatives(
+        model,
+        &mut boundary,
+        &state.boundary_point(&pose, wrench),
+        &mut r,
+        &mut blocks,
+    );
+    solver.boundary.count_evaluations_of(&boundary);
+    solver.work.add_work(&NewtonReport {
+        residual_evaluations: 1,
+        jacobian_evaluations: 1,
+        ..NewtonReport::none()
+    });
+    evaluated.is_ok()
+        && condition_blocks(model, &blocks, &state.y_u, &AnalysisSettings::default())
+            .is_ok_and(|c| !c.stability.stable)
 }
 
 /// Follows `target(λ)`, λ: 0 → 1, from `start` (the solution at λ = 0), warm-starting
@@ -318,21 +362,22 @@ mod tests {
     #[test]
     fn a_cold_fk_that_falls_back_reports_its_failed_direct_attempt_too() {
         let mut s = solver("lilge2022_redundant");
-        // A seeded draw of `cold_fk_stats` (certified reachable from q = 0) whose direct
-        // attempt from the straight guess fails after the iteration limit.
+        // A seeded draw of `cold_fk_stats` (certified reachable from q = 0, draw 9) whose
+        // direct attempt from the straight guess fails after the iteration limit.
         let q = [
-            0.0024413170655980055,
-            -0.001212387344936381,
-            0.028735560108241888,
-            0.007352676480969425,
-            0.0036141884425212,
-            0.034397459288307175,
-            0.0019487756407983415,
-            -0.0022233943164393886,
-            0.020227959048392034,
+            0.0020940769549205674,
+            -0.004421908695830863,
+            -0.041016952445253455,
+            -0.005906447594347555,
+            -0.002321861835161636,
+            -0.06908687664650784,
+            0.007520911643380626,
+            -4.008795593204662e-5,
+            -0.03942444739227396,
         ];
         let (settings, wrench) = (s.settings, s.total_wrench(&Wrench::default()));
         let guess = s.home_guess(&straight_leg_pose(&s.model, &q), &q, &wrench);
+        s.newton.nonmonotone_once(COLD_FK_NONMONOTONE_WINDOW);
         let direct = run(
             &mut s,
             &settings,
