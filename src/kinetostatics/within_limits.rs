@@ -172,7 +172,7 @@ impl<'a> QpStep<'a> {
     }
 
     /// The step from `x` with `matrix` (the scaled step matrix and its column scales).
-    fn solve(
+    fn step_with(
         &mut self,
         matrix: &StepMatrix,
         x: &[f64],
@@ -212,7 +212,7 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         iteration: usize,
     ) -> Result<Vec<f64>, StopReason> {
         let matrix = scaled_step_matrix(system.blocks, weights, self.limits);
-        let step = self.solve(&matrix, x, r, weights, iteration);
+        let step = self.step_with(&matrix, x, r, weights, iteration);
         self.matrix = Some(matrix);
         step
     }
@@ -232,7 +232,7 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
             Some(matrix) => matrix,
             None => scaled_step_matrix(system.blocks, weights, self.limits),
         };
-        let step = self.solve(&matrix, x, r, weights, iteration).ok();
+        let step = self.step_with(&matrix, x, r, weights, iteration).ok();
         self.matrix = Some(matrix);
         step
     }
