@@ -225,12 +225,12 @@ fn subtract_columns_inline(left: &[f64], col_j: &mut [f64], n: usize, j: usize) 
 /// Products with an exactly zero factor leave a sum unchanged and are skipped by tiles:
 /// S is summed in 4 × 4 tiles, each over the columns that have a nonzero entry in both
 /// of its row groups of four (a column with s_j = 0 in none). This assumes a finite A:
-/// an infinite entry's products with the zeros of a skipped group would have been NaN. The redundant IK's step
-/// matrix is sparse in blocks (a leg's columns touch its own ten rows and the six
-/// platform rows): at the 9-DoF bench configuration its S (36 × 36 from 39 columns) has
-/// 31 of 45 lower tiles with any column, 339 tile-column passes instead of 1 755, and
-/// takes 1.9 µs against 2.9 µs for the scaled copy and nalgebra's product (AVX-512
-/// matrixmultiply kernel).
+/// an infinite entry's products with the zeros of a skipped group would have been NaN.
+/// The redundant IK's step matrix is sparse in blocks (a leg's columns touch its own ten
+/// rows and the six platform rows): at the 9-DoF bench configuration its S (36 × 36 from
+/// 39 columns) has 31 of 45 lower tiles with any column, 339 tile-column passes instead
+/// of 1 755, and takes 1.9 µs against 2.9 µs for the scaled copy and nalgebra's product
+/// (AVX-512 matrixmultiply kernel).
 ///
 /// # Panics
 /// If `a` does not have `scales.len()` columns.

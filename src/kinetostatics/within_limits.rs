@@ -26,13 +26,15 @@
 //! limits, and a QP with no feasible step, which the interior point method proves
 //! infeasible); its solution identifies the active limits, and the step is then
 //! recomputed exactly from the KKT system with those limits as equalities (if that step
-//! respects the other limits). The limit rows G (±δq̃_j) are formed as a matrix only for
-//! clarabel, and a chord step reuses the step matrix of the last Jacobian: with the
-//! step matrix's S by tiles (`linalg::scaled_gram_lower`), the warm 1 mm step of the
-//! 9-DoF design took 140–144 µs against 151–153 µs before (2026-11-26, sixth session). Either way the linearized boundary conditions hold to
-//! round-off and Newton keeps its quadratic convergence. A backtracking line search on the weighted
-//! residual only shortens steps, so every iterate stays within the limits (a box is
-//! convex) once one is. Converged as every solve ([`NewtonSettings::tolerance`]).
+//! respects the other limits). Either way the linearized boundary conditions hold to
+//! round-off and Newton keeps its quadratic convergence. A backtracking line search on
+//! the weighted residual only shortens steps, so every iterate stays within the limits
+//! (a box is convex) once one is. Converged as every solve ([`NewtonSettings::tolerance`]).
+//!
+//! The limit rows G (±δq̃_j) are formed as a matrix only for clarabel, and a chord step
+//! reuses the step matrix of the last Jacobian: with the least-change step's S by tiles
+//! (`linalg::scaled_gram_lower`), the warm 1 mm step of the 9-DoF design took
+//! 140–144 µs against 151–153 µs before (2026-11-26, sixth session).
 
 use std::cell::RefCell;
 
