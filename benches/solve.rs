@@ -96,18 +96,22 @@ fn bench_jacobians(c: &mut Criterion) {
         group.bench_function(format!("{name}/svd_bx_bu_nalgebra"), |b| {
             b.iter(|| black_box(&a).clone().singular_values())
         });
-        // The same two jobs with faer (allocating API, sequential).
-        let fa = faer::Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)]);
-        let fr = faer::Mat::<f64>::from_fn(n, 1, |i, _| r[i]);
-        group.bench_function(format!("{name}/newton_solve_faer_lu"), |b| {
-            b.iter(|| {
-                use faer::linalg::solvers::Solve;
-                black_box(&fa).partial_piv_lu().solve(&fr)
-            })
-        });
-        group.bench_function(format!("{name}/svd_bx_bu_faer"), |b| {
-            b.iter(|| black_box(&fa).singular_values().unwrap())
-        });
+        // The same two jobs with faer (allocating API, sequential), with the feature
+        // `faer-comparison` only: `cargo bench --bench solve --features faer-comparison`.
+        #[cfg(feature = "faer-comparison")]
+        {
+            let fa = faer::Mat::<f64>::from_fn(n, n, |i, j| a[(i, j)]);
+            let fr = faer::Mat::<f64>::from_fn(n, 1, |i, _| r[i]);
+            group.bench_function(format!("{name}/newton_solve_faer_lu"), |b| {
+                b.iter(|| {
+                    use faer::linalg::solvers::Solve;
+                    black_box(&fa).partial_piv_lu().solve(&fr)
+                })
+            });
+            group.bench_function(format!("{name}/svd_bx_bu_faer"), |b| {
+                b.iter(|| black_box(&fa).singular_values().unwrap())
+            });
+        }
     }
     group.finish();
 }

@@ -426,12 +426,13 @@ fn lane3<T: Real>(x: &Vector3<T>, i: usize) -> Vector3<f64> {
     x.map(|e| e.lane(i))
 }
 
-// Inlined (into the AVX2 copy) in optimized builds only: a debug build keeps every
-// temporary of every inlined call in its own stack slot, and the four direction counts
-// inlined into one function took a frame of 1 MB, which with a solver's call stack
-// overflowed the 2 MB stacks of rayon's workers.
-#[cfg_attr(not(debug_assertions), inline(always))]
-#[cfg_attr(debug_assertions, inline(never))]
+// Inlined (into the AVX2 copy) in optimized builds only (`build.rs` sets
+// `tdpcr_unoptimized` at opt-level 0): an unoptimized build keeps every temporary of every
+// inlined call in its own stack slot, and the four direction counts inlined into one
+// function took a frame of 1 MB, which with a solver's call stack overflowed the 2 MB
+// stacks of rayon's workers.
+#[cfg_attr(not(tdpcr_unoptimized), inline(always))]
+#[cfg_attr(tdpcr_unoptimized, inline(never))]
 fn integrate_lanes<const N: usize, T: Real>(
     model: &LegModel,
     starts: &[LegStart],
