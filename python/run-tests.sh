@@ -16,12 +16,9 @@ fi
 py="$venv/bin/python"
 "$py" -m pip install --quiet --disable-pip-version-check maturin numpy pytest distributed
 # --force-reinstall: the version does not change between commits, the code does.
-# The test profile (opt-level 2, as `cargo test` builds; the same code as the release
-# wheel users get from `pip install ./python`) reuses the dependencies `cargo test` built
-# (on the 2-core AMD machine the wheel then took 2m07s; with the release profile this
-# whole script took 4m39s).
-MATURIN_PEP517_ARGS="--profile test" \
-    "$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$root/python"
+# (The release wheel, as users get it. Built in the test profile, to reuse what `cargo
+# test` built, maturin made a test harness, not a loadable module.)
+"$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps "$root/python"
 
 # The CLI as `cargo test` builds it (test profile, the tests' features): a no-op after the
 # README's test command has run `cargo test`; a plain `cargo build` would compile every
