@@ -484,8 +484,8 @@ impl<T: Real> Stage<T> {
     ) {
         // The leg's lanes are read in place (`*x.lane_ref(leg)`), one named scalar each:
         // copied out first (`map` over a row), each went through the stack before its
-        // broadcast (callgrind: 44 k of a 6-DoF exact Jacobian's 431 k instructions); an
-        // array `map` over the indices cost 23 k more than the copies.
+        // broadcast (callgrind: about 40 k of a 6-DoF exact Jacobian's 431 k
+        // instructions); H's row as an array `map` over its indices took 505 k.
         let at = |x: &T| *x.lane_ref(leg);
         let lane = |x: &Vector3<T>| Vector3::new(at(&x.x), at(&x.y), at(&x.z));
         let f = &model.weight_per_length;
@@ -527,8 +527,8 @@ impl<T: Real> Stage<T> {
             step.passive(Row::S(tendons.tendon[leg][slot]), &ds);
         }
         let (v, u) = (lane(&self.v), lane(&self.u));
+        let rot = &self.r;
         for row in 0..3 {
-            let rot = &self.r;
             let (r0, r1, r2) = (at(&rot[(row, 0)]), at(&rot[(row, 1)]), at(&rot[(row, 2)]));
             let (mut dp, mut c0, mut c1, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
             for j in 0..N {
@@ -626,7 +626,7 @@ pub struct RkEmit<'a> {
 /// `out = base + c·k` over the first `N` lanes, formed in a local array and then copied.
 /// Written straight into `out`, the compiler could not rule out that `out` overlaps
 /// `base` (both reached through [`RkEmit`]'s references) and emitted a scalar load,
-/// fused multiply–add and store per lane: 65 k of a 6-DoF exact Jacobian's 496 k
+/// fused multiply–add and store per lane: about 65 k of a 6-DoF exact Jacobian's 496 k
 /// instructions (callgrind, 2026-11-26, eighth session). The same operations.
 #[inline(always)]
 fn set_sum<const N: usize>(out: &mut Lanes, base: &Lanes, c: f64, k: &[f64; N]) {
