@@ -6,6 +6,8 @@ expected region (non-background pixels). Prints the time to first render.
 
 usage: check_page.py CHROMIUM PAGE.html SCREENSHOT.png [--region X0,Y0,X1,Y1] [--min-fraction F]
 Region in fractions of the 1200 x 800 window (default: the plot area 0.05,0.1,0.75,0.9).
+A chromium that exits before it opens a tab is started again (three launches in all);
+chromium's own messages are appended to the file $CHROMIUM_LOG if set.
 """
 
 import argparse
@@ -21,6 +23,8 @@ import zlib
 
 WIDTH, HEIGHT = 1200, 800
 TIMEOUT_S = 90.0
+# Launches of chromium before a tab opens (see `open_tab`).
+STARTUP_ATTEMPTS = 3
 
 
 class Browser:
@@ -46,7 +50,7 @@ class Browser:
         ]
         self.proc = subprocess.Popen(
             [chromium, *flags], preexec_fn=child_fds, close_fds=False,
-            stdout=subprocess.DEVNULL, stderr=open(os.environ.get("CHROMIUM_LOG", os.devnull), "w"),
+            stdout=subprocess.DEVNULL, stderr=open(os.environ.get("CHROMIUM_LOG", os.devnull), "a"),
         )
         os.close(to_browser_r)
         os.close(from_browser_w)
@@ -166,6 +170,26 @@ def drawn_fraction(png, region):
     return drawn / max(total, 1)
 
 
+def open_tab(chromium, attempts=STARTUP_ATTEMPTS):
+    """A started chromium and the session of a blank tab in it. A chromium that exits
+    before it answers the first command (a fresh-clone CI run once lost one so, at the
+    fourth of four launches, with no page loaded yet) is started again, saying so, up to
+    `attempts` times in all; a failure once a page is loaded is never retried."""
+    for attempt in range(1, attempts + 1):
+        browser = Browser(chromium)
+        try:
+            target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+            session = browser.send("Target.attachToTarget",
+                                   {"targetId": target, "flatten": True})["sessionId"]
+            return browser, session
+        except RuntimeError as e:
+            browser.close()
+            if attempt == attempts:
+                raise
+            print(f"chromium did not start (attempt {attempt}: {e}, exit code "
+                  f"{browser.proc.returncode}); starting it again", file=sys.stderr)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("chromium")
@@ -176,10 +200,8 @@ def main():
     args = ap.parse_args()
     region = [float(x) for x in args.region.split(",")]
     url = "file://" + os.path.abspath(args.page)
-    browser = Browser(args.chromium)
+    browser, session = open_tab(args.chromium)
     try:
-        target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-        session = browser.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
         for domain in ("Runtime", "Log", "Page"):
             browser.send(f"{domain}.enable", session=session)
         browser.send("Emulation.setDeviceMetricsOverride",

@@ -34,6 +34,8 @@ if ! command -v python3 >/dev/null 2>&1; then
 fi
 
 out=${TDPCR_BROWSER_OUT:-$(mktemp -d -t tdpcr-browser-XXXXXX)}
+# chromium's own messages, every launch appended (for a browser that fails to start).
+export CHROMIUM_LOG=${CHROMIUM_LOG:-$out/chromium.log}
 mkdir -p "$out"
 # The CLIs as `cargo test` builds them (test profile, opt-level 2: the sweeps are fast): a
 # no-op after the README's test command has run `cargo test`; a plain `cargo build` would
