@@ -40,68 +40,94 @@ impl DenseLu {
             "DenseLu::factor: matrix size mismatch"
         );
         self.lu.copy_from(a);
-        let n = a.nrows();
-        let lu = &mut self.lu;
-        for col in 0..n {
-            let mut best = col;
-            let mut best_abs = lu[(col, col)].abs();
-            for row in col + 1..n {
-                let v = lu[(row, col)].abs();
-                if v > best_abs {
-                    best = row;
-                    best_abs = v;
-                }
-            }
-            if best_abs == 0.0 || !best_abs.is_finite() {
-                return Err(Singular { column: col });
-            }
-            self.pivots[col] = best;
-            if best != col {
-                lu.swap_rows(best, col);
-            }
-            // Column-major storage: column `col` (the multipliers) and the columns right
-            // of it as slices (the same operations, element by element, as indexing).
-            let (left, right) = lu.as_mut_slice().split_at_mut((col + 1) * n);
-            let multipliers = &mut left[col * n + col..];
-            let pivot = multipliers[0];
-            let multipliers = &mut multipliers[1..];
-            for l in multipliers.iter_mut() {
-                *l /= pivot;
-            }
-            for column in right.chunks_exact_mut(n) {
-                let factor = column[col];
-                if factor != 0.0 {
-                    for (x, l) in column[col + 1..].iter_mut().zip(multipliers.iter()) {
-                        *x -= l * factor;
-                    }
-                }
-            }
-        }
-        Ok(())
+        lu_factor(&mut self.lu, &mut self.pivots)
     }
 
     /// Solves A x = b in place (after a successful [`DenseLu::factor`]).
     pub fn solve_in_place(&self, b: &mut DVector<f64>) {
-        let n = self.lu.nrows();
-        for i in 0..n {
-            b.swap_rows(i, self.pivots[i]);
+        lu_solve(&self.lu, &self.pivots, b.as_mut_slice());
+    }
+}
+
+avx2_dispatch! {
+    /// Factors `lu` in place (partial pivoting, the row swaps in `pivots`), in an AVX2
+    /// copy where the CPU has it: the same operations in the same order (no fused
+    /// multiply–add), so the same factors bit for bit, with the column updates four
+    /// rows a vector instead of two. At 36 × 36 (the 9-DoF design's square systems)
+    /// 74.6 k → 58.3 k instructions per factorization (callgrind, warm FK steps).
+    fn lu_factor = lu_factor_avx2 / lu_factor_inline;
+        (lu: &mut DMatrix<f64>, pivots: &mut [usize]) -> Result<(), Singular>
+}
+
+avx2_dispatch! {
+    /// Solves with the factors of [`lu_factor`] in place, in an AVX2 copy as
+    /// [`lu_factor`]'s: 8.66 k → 5.96 k instructions per solve at 36 × 36 (the same
+    /// results bit for bit).
+    fn lu_solve = lu_solve_avx2 / lu_solve_inline;
+        (lu: &DMatrix<f64>, pivots: &[usize], b: &mut [f64])
+}
+
+#[inline(always)]
+fn lu_factor_inline(lu: &mut DMatrix<f64>, pivots: &mut [usize]) -> Result<(), Singular> {
+    let n = lu.nrows();
+    for col in 0..n {
+        let mut best = col;
+        let mut best_abs = lu[(col, col)].abs();
+        for row in col + 1..n {
+            let v = lu[(row, col)].abs();
+            if v > best_abs {
+                best = row;
+                best_abs = v;
+            }
         }
-        let b = b.as_mut_slice();
-        let columns = || self.lu.as_slice().chunks_exact(n);
-        for (c, column) in columns().enumerate() {
-            let bc = b[c];
-            if bc != 0.0 {
-                for (x, l) in b[c + 1..].iter_mut().zip(&column[c + 1..]) {
-                    *x -= l * bc;
+        if best_abs == 0.0 || !best_abs.is_finite() {
+            return Err(Singular { column: col });
+        }
+        pivots[col] = best;
+        if best != col {
+            lu.swap_rows(best, col);
+        }
+        // Column-major storage: column `col` (the multipliers) and the columns right
+        // of it as slices (the same operations, element by element, as indexing).
+        let (left, right) = lu.as_mut_slice().split_at_mut((col + 1) * n);
+        let multipliers = &mut left[col * n + col..];
+        let pivot = multipliers[0];
+        let multipliers = &mut multipliers[1..];
+        for l in multipliers.iter_mut() {
+            *l /= pivot;
+        }
+        for column in right.chunks_exact_mut(n) {
+            let factor = column[col];
+            if factor != 0.0 {
+                for (x, l) in column[col + 1..].iter_mut().zip(multipliers.iter()) {
+                    *x -= l * factor;
                 }
             }
         }
-        for (c, column) in columns().enumerate().rev() {
-            b[c] /= column[c];
-            let bc = b[c];
-            for (x, u) in b[..c].iter_mut().zip(&column[..c]) {
-                *x -= u * bc;
+    }
+    Ok(())
+}
+
+#[inline(always)]
+fn lu_solve_inline(lu: &DMatrix<f64>, pivots: &[usize], b: &mut [f64]) {
+    let n = lu.nrows();
+    for (i, &p) in pivots.iter().enumerate() {
+        b.swap(i, p);
+    }
+    let columns = || lu.as_slice().chunks_exact(n);
+    for (c, column) in columns().enumerate() {
+        let bc = b[c];
+        if bc != 0.0 {
+            for (x, l) in b[c + 1..].iter_mut().zip(&column[c + 1..]) {
+                *x -= l * bc;
             }
+        }
+    }
+    for (c, column) in columns().enumerate().rev() {
+        b[c] /= column[c];
+        let bc = b[c];
+        for (x, u) in b[..c].iter_mut().zip(&column[..c]) {
+            *x -= u * bc;
         }
     }
 }
@@ -447,6 +473,49 @@ mod tests {
                 assert!(same(x.as_slice(), expected.as_slice()), "x, n = {n}");
             }
         }
+    }
+
+    #[test]
+    fn the_dispatched_lu_equals_its_portable_body_bit_for_bit() {
+        let same = |x: &[f64], y: &[f64]| x.iter().zip(y).all(|(a, b)| a.to_bits() == b.to_bits());
+        for n in [1, 5, 30, 36] {
+            // Not symmetric, rows out of pivot order, entries over several decades.
+            let a = DMatrix::from_fn(n, n, |i, j| {
+                // A dominant entry off the diagonal in every row: pivoting reorders rows.
+                let dominant = if (i + 1) % n == j { 5.0 } else { 0.0 };
+                ((((i + 5) * (j + 3)) % 23) as f64 * 0.17 - 1.9 + dominant)
+                    * 10f64.powi((i + 2 * j) as i32 % 4 - 1)
+            });
+            let mut dispatched = DenseLu::new(n);
+            dispatched.factor(&a).unwrap();
+            let (mut lu, mut pivots) = (a.clone(), vec![0; n]);
+            lu_factor_inline(&mut lu, &mut pivots).unwrap();
+            assert!(
+                same(dispatched.lu.as_slice(), lu.as_slice()),
+                "factors, n = {n}"
+            );
+            assert_eq!(dispatched.pivots, pivots, "pivots, n = {n}");
+            let b = DVector::from_fn(n, |i, _| (i as f64 * 0.9).cos() * 10f64.powi(i as i32 % 3));
+            let mut x = b.clone();
+            dispatched.solve_in_place(&mut x);
+            let mut expected = b.clone();
+            lu_solve_inline(&lu, &pivots, expected.as_mut_slice());
+            assert!(same(x.as_slice(), expected.as_slice()), "x, n = {n}");
+            let scale = a.abs() * x.abs();
+            assert!(
+                (&a * &x - &b)
+                    .iter()
+                    .zip(&scale)
+                    .all(|(r, s)| r.abs() <= 1e-12 * s),
+                "residual, n = {n}"
+            );
+        }
+        let singular =
+            DMatrix::from_fn(4, 4, |i, j| if j == 2 { 0.0 } else { (i + j) as f64 + 1.0 });
+        assert_eq!(
+            DenseLu::new(4).factor(&singular),
+            Err(Singular { column: 2 })
+        );
     }
 
     /// A 36 × 39 matrix with the redundant IK step matrix's blocks (rows 0..6 touched by

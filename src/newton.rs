@@ -982,44 +982,58 @@ impl Dogleg {
     /// The pieces for `sc`'s factored Jacobian, residual and Newton step (`newton_ok`:
     /// whether there is one).
     fn at(sc: &mut NewtonScratch, newton_ok: bool) -> Self {
-        let n = sc.r.len();
-        for i in 0..n {
-            sc.work[i] = sc.r[i] * sc.weights[i];
+        dogleg_at(sc, newton_ok)
+    }
+}
+
+avx2_dispatch! {
+    /// [`Dogleg::at`], in an AVX2 copy where the CPU has it: the same operations in the
+    /// same order (the same pieces bit for bit), the products with the Jacobian four
+    /// rows a vector: 14.6 k → 10.6 k instructions per call at 36 unknowns
+    /// (callgrind, a warm FK step of the 9-DoF design).
+    fn dogleg_at = dogleg_at_avx2 / dogleg_at_inline;
+        (sc: &mut NewtonScratch, newton_ok: bool) -> Dogleg
+}
+
+#[inline(always)]
+fn dogleg_at_inline(sc: &mut NewtonScratch, newton_ok: bool) -> Dogleg {
+    let n = sc.r.len();
+    for i in 0..n {
+        sc.work[i] = sc.r[i] * sc.weights[i];
+    }
+    sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
+    let newton_len = if newton_ok {
+        scaled_norm(&sc.newton_step, &sc.diag)
+    } else {
+        f64::INFINITY
+    };
+    // Cauchy point along s = −D⁻² g.
+    let g_scaled_sq: f64 = sc
+        .gradient
+        .as_slice()
+        .iter()
+        .zip(sc.diag.as_slice())
+        .map(|(g, d)| (g / d).powi(2))
+        .sum();
+    // (J s)_i with s = −D⁻² g, each row's sum in the order of j (column by column).
+    sc.rows.fill(0.0);
+    for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
+        let (g, dd) = (sc.gradient[j], sc.diag[j] * sc.diag[j]);
+        for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
+            *acc -= a * g / dd;
         }
-        sc.jac.tr_mul_to(&sc.work, &mut sc.gradient);
-        let newton_len = if newton_ok {
-            scaled_norm(&sc.newton_step, &sc.diag)
-        } else {
-            f64::INFINITY
-        };
-        // Cauchy point along s = −D⁻² g.
-        let g_scaled_sq: f64 = sc
-            .gradient
-            .as_slice()
-            .iter()
-            .zip(sc.diag.as_slice())
-            .map(|(g, d)| (g / d).powi(2))
-            .sum();
-        // (J s)_i with s = −D⁻² g, each row's sum in the order of j (column by column).
-        sc.rows.fill(0.0);
-        for (j, column) in sc.jac.as_slice().chunks_exact(n).enumerate() {
-            let (g, dd) = (sc.gradient[j], sc.diag[j] * sc.diag[j]);
-            for (acc, a) in sc.rows.as_mut_slice().iter_mut().zip(column) {
-                *acc -= a * g / dd;
-            }
-        }
-        let js_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
-        let cauchy_t = if js_sq > 0.0 {
-            g_scaled_sq / js_sq
-        } else {
-            0.0
-        };
-        Self {
-            newton_ok,
-            newton_len,
-            cauchy_t,
-            s_len: g_scaled_sq.sqrt(),
-        }
+    }
+    let js_sq: f64 = sc.rows.iter().map(|acc| acc * acc).sum();
+    let cauchy_t = if js_sq > 0.0 {
+        g_scaled_sq / js_sq
+    } else {
+        0.0
+    };
+    Dogleg {
+        newton_ok,
+        newton_len,
+        cauchy_t,
+        s_len: g_scaled_sq.sqrt(),
     }
 }
 
@@ -1482,6 +1496,36 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_dispatched_dogleg_pieces_equal_their_portable_body_bit_for_bit() {
+        let n = 36;
+        let mut sc = NewtonScratch::new(n, 5);
+        let wave = |k: usize, a: f64| (k as f64 * a).sin() * 10f64.powi(k as i32 % 5 - 2);
+        for i in 0..n {
+            sc.r[i] = wave(i, 0.7);
+            sc.weights[i] = 1.0 + wave(i, 0.3).abs();
+            sc.diag[i] = 0.5 + wave(i, 1.1).abs();
+            sc.newton_step[i] = wave(i, 0.45);
+            for j in 0..n {
+                sc.jac[(i, j)] = wave(i * n + j, 0.013);
+            }
+        }
+        let mut copy = sc.clone();
+        let dispatched = dogleg_at(&mut sc, true);
+        let portable = dogleg_at_inline(&mut copy, true);
+        let same = |x: f64, y: f64| x.to_bits() == y.to_bits();
+        assert!(same(dispatched.newton_len, portable.newton_len));
+        assert!(same(dispatched.cauchy_t, portable.cauchy_t));
+        assert!(same(dispatched.s_len, portable.s_len));
+        assert!(
+            sc.gradient
+                .iter()
+                .zip(&copy.gradient)
+                .all(|(a, b)| same(*a, *b))
+        );
+        assert!(dispatched.cauchy_t > 0.0 && dispatched.s_len > 0.0);
+    }
 
     /// Powell's badly scaled function: 1e4 x y = 1, e^{-x} + e^{-y} = 1.0001.
     struct Powell;

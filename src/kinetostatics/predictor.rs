@@ -196,10 +196,17 @@ fn extrapolated_start(
                 .product()
         })
         .collect();
+    // Σ_k w_k x_k entry by entry, the points in order (as an iterator's sum, which starts
+    // from −0.0: −0.0 + a = a bit for bit), one point's slice at a time: entry by entry
+    // through `of` it cost 7 k instructions per warm 9-DoF FK step (1.4 %).
     let combine = |of: fn(&PathPoint) -> &[f64]| -> Vec<f64> {
-        (0..of(&path[0]).len())
-            .map(|i| path.iter().zip(&weights).map(|(p, w)| w * of(p)[i]).sum())
-            .collect()
+        let mut out: Vec<f64> = of(&path[0]).iter().map(|x| weights[0] * x).collect();
+        for (p, w) in path.iter().zip(&weights).skip(1) {
+            for (o, x) in out.iter_mut().zip(of(p)) {
+                *o += w * x;
+            }
+        }
+        out
     };
     let extrapolated_target = combine(|p| &p.target);
     let last_step = steps[steps.len() - 1];
