@@ -59,6 +59,40 @@ fn coarse_sweep_is_identical_across_runs_and_thread_counts() {
 }
 
 #[test]
+fn points_csv_formatted_in_parallel_blocks_keeps_the_order_of_the_map() {
+    let mut map = sweep_on(1, &reference(), &coarse());
+    // Past several formatting blocks: the coarse cells again and again, each copy moved
+    // so that every line names its point.
+    let cells = map.points.clone();
+    while map.points.len() < 10_000 {
+        let k = map.points.len();
+        let mut p = cells[k % cells.len()].clone();
+        p.position[0] = k as f64;
+        map.points.push(p);
+    }
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| files::points_csv(&map))
+    };
+    let (one, two) = (on(1), on(2));
+    assert_eq!(one, two);
+    let lines: Vec<&str> = two.lines().collect();
+    assert_eq!(lines.len(), map.points.len() + 1);
+    for (k, (line, p)) in lines[1..].iter().zip(&map.points).enumerate() {
+        let x = line.split(',').next().unwrap();
+        assert_eq!(x.parse::<f64>().unwrap(), p.position[0], "line {k}");
+        assert_eq!(
+            line.split(',').count(),
+            lines[0].split(',').count(),
+            "line {k}"
+        );
+    }
+}
+
+#[test]
 fn every_point_is_an_equilibrium_that_fk_finds_again_from_its_q() {
     let design = reference();
     let settings = coarse();

@@ -6,9 +6,11 @@ use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
+
 use crate::error::Error;
 use crate::output::write_atomically;
-use crate::workspace::WorkspaceMap;
+use crate::workspace::{WorkspaceMap, WorkspacePoint};
 
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
 /// raw rcond (`rcond_b_xu, rcond_b_qu, rcond_b_u, rcond_j_p, rcond_j_o, rcond_c_p,
@@ -42,46 +44,80 @@ pub fn csv_header(n_actuators: usize, tendons_per_leg: usize) -> Vec<String> {
 
 /// `points.csv` as text: the header of [`csv_header`], then one line per cell (reachable
 /// and collision), in the map's order. Numbers are written with the shortest digits that
-/// read back to the same f64 (exponent form below 1e-4).
+/// read back to the same f64 (exponent form below 1e-4). The lines are formatted in
+/// parallel blocks (rayon, on the current pool) and joined in order: the same text as one
+/// line after the other. For 69 750 cells of the reference design (39 MB) on the 2-core
+/// AMD machine: 0.20–0.24 s on two threads, 0.27–0.45 s on one.
 pub fn points_csv(map: &WorkspaceMap) -> String {
     let mut out = csv_header(map.n_actuators, map.tendons_per_leg).join(",");
     out.push('\n');
-    let flag = |b: bool| if b { "1" } else { "0" };
-    for p in &map.points {
-        let (r, s, m) = (&p.metrics.rcond, &p.metrics.rcond_scaled, &p.metrics);
-        let numbers = p
-            .position
-            .iter()
-            .chain(&p.state.q)
-            .chain(&p.tensions)
-            .chain([&m.min_tension])
-            .chain([&r.b_xu, &r.b_qu, &r.b_u, &r.j_p, &r.j_o, &r.c_p, &r.c_o])
-            .chain([&s.b_xu, &s.b_qu, &s.b_u, &s.j_p, &s.j_o, &s.c_p, &s.c_o]);
-        for x in numbers {
-            // Every value is finite by construction; guard anyway (no NaN in outputs).
-            let x = if x.is_finite() { *x } else { 0.0 };
-            // Shortest round-trip digits; exponent form for tiny values (rcond ~ 1e-9).
-            let _ = if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
-                write!(out, "{x},")
-            } else {
-                write!(out, "{x:e},")
-            };
-        }
-        let f = &m.singularity;
-        let _ = write!(
-            out,
-            "{},{},{},{},{},",
-            flag(f.type_i),
-            flag(f.type_ii),
-            flag(f.leg),
-            flag(p.collision),
-            flag(!m.stable)
-        );
-        let e = m.min_compliance_eigenvalue;
-        let e = if e.is_finite() { e } else { 0.0 };
-        let _ = writeln!(out, "{e:e}");
+    let blocks: Vec<String> = map
+        .points
+        .par_chunks(CSV_BLOCK)
+        .map(|points| {
+            let mut block = String::with_capacity(600 * points.len());
+            for p in points {
+                write_csv_line(&mut block, p);
+            }
+            block
+        })
+        .collect();
+    out.reserve(blocks.iter().map(String::len).sum());
+    for block in blocks {
+        out.push_str(&block);
     }
     out
+}
+
+/// Cells per block of [`points_csv`]'s parallel formatting.
+const CSV_BLOCK: usize = 4096;
+
+/// One line of `points.csv` for `p` (with its newline).
+fn write_csv_line(out: &mut String, p: &WorkspacePoint) {
+    let flag = |b: bool| if b { "1" } else { "0" };
+    let (r, s, m) = (&p.metrics.rcond, &p.metrics.rcond_scaled, &p.metrics);
+    let numbers = p
+        .position
+        .iter()
+        .chain(&p.state.q)
+        .chain(&p.tensions)
+        .chain([&m.min_tension])
+        .chain([&r.b_xu, &r.b_qu, &r.b_u, &r.j_p, &r.j_o, &r.c_p, &r.c_o])
+        .chain([&s.b_xu, &s.b_qu, &s.b_u, &s.j_p, &s.j_o, &s.c_p, &s.c_o]);
+    for x in numbers {
+        // Every value is finite by construction; guard anyway (no NaN in outputs).
+        let x = if x.is_finite() { *x } else { 0.0 };
+        // Shortest round-trip digits; exponent form for tiny values (rcond ~ 1e-9).
+        let _ = if x == 0.0 || (1e-4..1e15).contains(&x.abs()) {
+            write!(out, "{x},")
+        } else {
+            write!(out, "{x:e},")
+        };
+    }
+    let f = &m.singularity;
+    let _ = write!(
+        out,
+        "{},{},{},{},{},",
+        flag(f.type_i),
+        flag(f.type_ii),
+        flag(f.leg),
+        flag(p.collision),
+        flag(!m.stable)
+    );
+    let e = m.min_compliance_eigenvalue;
+    let e = if e.is_finite() { e } else { 0.0 };
+    let _ = writeln!(out, "{e:e}");
+}
+
+/// Creates the output directory `dir` (and its parents) if missing.
+///
+/// # Errors
+/// [`Error::Output`] naming `dir`.
+pub fn create_output_dir(dir: &Path) -> Result<(), Error> {
+    fs::create_dir_all(dir).map_err(|source| Error::Output {
+        path: dir.to_path_buf(),
+        source,
+    })
 }
 
 /// Writes `points.csv`, `summary.json` and (with the `plots` feature) the slice figures of
@@ -91,10 +127,7 @@ pub fn points_csv(map: &WorkspaceMap) -> String {
 /// # Errors
 /// [`Error::Output`] naming the file that could not be written.
 pub fn write_outputs(map: &WorkspaceMap, dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    fs::create_dir_all(dir).map_err(|source| Error::Output {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    create_output_dir(dir)?;
     let mut written = Vec::new();
     let points = dir.join("points.csv");
     write_atomically(&points, points_csv(map).as_bytes())?;
