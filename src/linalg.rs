@@ -263,19 +263,18 @@ fn subtract_columns_inline(left: &[f64], col_j: &mut [f64], n: usize, j: usize) 
 pub fn scaled_gram_lower(a: &DMatrix<f64>, scales: &[f64]) -> DMatrix<f64> {
     let (m, n) = a.shape();
     assert_eq!(n, scales.len(), "scaled_gram_lower: one scale per column");
-    // Ã with its rows padded with zeros to a multiple of four.
+    // Ã with its rows padded with zeros to a multiple of four, every entry written once
+    // (a zeroed allocation first: 52.1 k → 42.1 k instructions a call at 36 × 39 by
+    // callgrind, which counts calloc's fill by the iteration).
     let rows = m.next_multiple_of(4);
-    let mut scaled = vec![0.0; rows * n];
-    for ((out, a_j), &scale) in scaled
-        .chunks_exact_mut(rows)
-        .zip(a.as_slice().chunks_exact(m))
-        .zip(scales)
-    {
+    let mut scaled = Vec::with_capacity(rows * n);
+    for (a_j, &scale) in a.as_slice().chunks_exact(m).zip(scales) {
         if scale != 0.0 {
-            for (x, a) in out.iter_mut().zip(a_j) {
-                *x = a * scale;
-            }
+            scaled.extend(a_j.iter().map(|a| a * scale));
+        } else {
+            scaled.extend(std::iter::repeat_n(0.0, m));
         }
+        scaled.extend(std::iter::repeat_n(0.0, rows - m));
     }
     let mut s = DMatrix::zeros(m, m);
     gram_tiles(&scaled, rows, s.as_mut_slice(), m);
