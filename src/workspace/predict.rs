@@ -7,25 +7,49 @@ use crate::kinetostatics::RobotState;
 use crate::model::Model;
 use crate::rod::tendon::TendonUnknown;
 
-/// Solutions used by the predictor of a path step: the last three give a quadratic
-/// extrapolation.
-pub(super) const PREDICTOR_POINTS: usize = 3;
+/// Solutions used by the predictor of a path step: the last five give a quartic
+/// extrapolation where their tendons share one taut/slack pattern ([`same_regime`]) and
+/// it agrees with the quadratic through the last three ([`HIGHER_ORDER_AGREEMENT`]).
+/// Measured on the reference design (z ∈ [−6, 0] mm, φ = 0.2, one thread; callgrind),
+/// with the extrapolated Jacobians ([`super::chord_jacobian`]) of as many solutions and
+/// the first chord step's expected last residual ([`crate::newton::FIRST_STEP_PREDICTION`]):
+/// quadratic from three, 8 726 residual integrations and 3 684 with sensitivities, 4.762 G
+/// instructions; quartic from five, 6 236 and 3 725, 4.579 G (−3.8 %), the same cells.
+/// From four (cubic), or from five but across a tendon's switch, more Newton Jacobians
+/// (566 and 624 instead of 474) where a prediction crosses the switch.
+pub(super) const PREDICTOR_POINTS: usize = 5;
+
+/// The extrapolation of more than three solutions is used where it differs from the
+/// quadratic through the last three by at most this fraction of the last step's change
+/// (‖·‖_∞ over q); otherwise the quadratic is (the steps are then too long for the
+/// solution's curvature to be resolved by the higher order). Measured, that fraction: at
+/// Δ = 3 mm (the reference design, z = −30 mm) median 9.0e-4, 99.9 % below 2.0e-2; at
+/// the design search's Δ = 12 mm median 1.6e-2, 29 % above 3e-2. Without the test the
+/// design search's first candidates lost 2 of 663 and 3 of 678 reachable cells and the
+/// ψ = 0 twin's Δ = 3 mm map moved 74 cells (41 lost, 33 gained of 90 490) near its
+/// folds, 17 more onto another branch; with it the candidates' cells are those of the
+/// quadratic and the twin's map moves 3 cells (2 lost, 1 gained) and 4 onto another
+/// branch.
+const HIGHER_ORDER_AGREEMENT: f64 = 0.02;
 
 /// The start of the next path step extrapolated from the last solutions at equal steps
-/// (oldest first): quadratic from three, linear from two, none from one. Tendon unknowns
-/// are extrapolated in ζ = γ|γ| (tension when positive, slack when negative: linear in
-/// the pose away from the taut/slack switch, where γ = ±√ζ is not), and a tendon whose
-/// prediction would switch between taut and slack is predicted at the switch (ζ = 0):
-/// the two sides have different units (N, m), so extrapolating across is meaningless.
+/// (oldest first): Lagrange, of degree one less than the number of solutions (at most
+/// [`PREDICTOR_POINTS`]; the quadratic where a higher order disagrees with it,
+/// [`HIGHER_ORDER_AGREEMENT`]), none from one. Tendon unknowns are extrapolated in
+/// ζ = γ|γ| (tension when positive, slack when negative: linear in the pose away from
+/// the taut/slack switch, where γ = ±√ζ is not), and a tendon whose prediction would
+/// switch between taut and slack is predicted at the switch (ζ = 0): the two sides have
+/// different units (N, m), so extrapolating across is meaningless.
 ///
 /// The solution is smooth in the pose only between switches, so once the last two
 /// solutions share their taut/slack pattern only the trailing solutions with that pattern
 /// are extrapolated ([`same_regime`]). Measured on the reference design at Δ = 3 mm,
 /// φ = 0.035: 14 % fewer Jacobian evaluations on the plane z = 0 and 20 % fewer on
 /// z = −0.06 m, the same cells. Right after a switch (one solution with the new pattern)
-/// the whole history is still used: both alternatives measured worse there (starting from
-/// the last solution lost 7 of 1581 cells on z = 0, a linear extrapolation from the last
-/// two lost 24).
+/// the last three solutions are used ([`QUADRATIC`] across the switch): both
+/// alternatives measured worse there (starting from the last solution lost 7 of 1581
+/// cells on z = 0, a linear extrapolation from the last two lost 24), and a quartic
+/// across it more so (see [`PREDICTOR_POINTS`]).
 pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
     let extrapolate = |xs: &[&[f64]]| -> Vec<f64> {
         let mut out = vec![0.0; xs[xs.len() - 1].len()];
@@ -38,8 +62,21 @@ pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotSta
     }
     let zeta: Vec<Vec<f64>> = history.iter().map(|s| in_zeta(model, s)).collect();
     let last = history[history.len() - 1];
-    let y_u = extrapolate(&zeta.iter().map(Vec::as_slice).collect::<Vec<_>>());
-    let q = extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>());
+    let n = history.len();
+    let mut q = extrapolate(&history.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>());
+    let mut from = 0;
+    if n > QUADRATIC {
+        // The higher order only where it agrees with the quadratic (see `PREDICTOR_POINTS`).
+        let tail = &history[n - QUADRATIC..];
+        let quadratic = extrapolate(&tail.iter().map(|s| s.q.as_slice()).collect::<Vec<_>>());
+        let step = max_difference(&history[n - 1].q, &history[n - 2].q);
+        let agrees = max_difference(&q, &quadratic) <= HIGHER_ORDER_AGREEMENT * step;
+        if !agrees {
+            q = quadratic;
+            from = n - QUADRATIC;
+        }
+    }
+    let y_u = extrapolate(&zeta[from..].iter().map(Vec::as_slice).collect::<Vec<_>>());
     Some(predicted_state(model, last, &zeta[zeta.len() - 1], q, y_u))
 }
 
@@ -74,12 +111,23 @@ pub(super) fn predicted_state(
     }
 }
 
-/// The values one step past the last of `xs` (equal steps, oldest first) into `out`:
-/// quadratic from three, linear from two, the last itself from one.
+/// ‖a − b‖_∞.
+pub(super) fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The values one step past the last of `xs` (equal steps, oldest first) into `out`: the
+/// polynomial through up to five points (Σ_k (−1)^(m−1−k) C(m, k) x_k for m points), the
+/// last itself from one.
 pub(super) fn extrapolate(xs: &[&[f64]], out: &mut [f64]) {
     let last = xs[xs.len() - 1];
     for (i, o) in out.iter_mut().enumerate() {
         *o = match xs {
+            [a, b, c, d, e] => 5.0 * e[i] - 10.0 * d[i] + 10.0 * c[i] - 5.0 * b[i] + a[i],
+            [a, b, c, d] => 4.0 * d[i] - 6.0 * c[i] + 4.0 * b[i] - a[i],
             [a, b, c] => 3.0 * c[i] - 3.0 * b[i] + a[i],
             [a, b] => 2.0 * b[i] - a[i],
             _ => last[i],
@@ -87,16 +135,21 @@ pub(super) fn extrapolate(xs: &[&[f64]], out: &mut [f64]) {
     }
 }
 
-/// The trailing solutions of `history` whose tendons are taut or slack as in the last
-/// one, if there are at least two of them; otherwise the whole history (see [`predict`]).
+/// The solutions of `history` to extrapolate (see [`predict`]): all of them where their
+/// tendons are taut or slack as in the last one; otherwise the trailing ones with the
+/// last one's pattern if there are at least two, else the last [`QUADRATIC`].
 ///
-/// Always the whole history for a redundant design (more actuators than a square IK):
-/// there the least-norm IK picks the solution nearest its start, so the predictor also
-/// chooses the path through the solution set, and the shorter history measured worse
-/// (Δ = 6 mm, φ = 0.05 rad: 11 044 instead of 12 057 reachable cells).
+/// Always the last [`QUADRATIC`] for a redundant design (more actuators than a square
+/// IK): there the least-norm IK picks the solution nearest its start, so the predictor
+/// also chooses the path through the solution set; a shorter history measured worse
+/// (Δ = 6 mm, φ = 0.05 rad: 11 044 instead of 12 057 reachable cells), and so did the
+/// quartic from five (z ∈ [−30, 0] mm, Δ = 3 mm, φ = 0.035: 18 378 instead of 18 995
+/// reachable cells, the sweep 15 % slower).
 fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s RobotState] {
+    let n = history.len();
+    let quadratic = &history[n.saturating_sub(QUADRATIC)..];
     if model.pairs > 1 {
-        return history;
+        return quadratic;
     }
     let same_pattern = |a: &RobotState, b: &RobotState| {
         model
@@ -111,12 +164,19 @@ fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s
         .rev()
         .take_while(|s| same_pattern(s, last))
         .count();
-    if run >= 2 {
-        &history[history.len() - run..]
-    } else {
+    if run == n {
         history
+    } else if run >= 2 {
+        &history[n - run..]
+    } else {
+        quadratic
     }
 }
+
+/// Solutions extrapolated by a redundant design's predictor, and where a tendon switched
+/// between taut and slack among the last ones and fewer than two share the last one's
+/// pattern: three, a quadratic (as before the quartic of [`PREDICTOR_POINTS`]).
+const QUADRATIC: usize = 3;
 
 #[cfg(test)]
 mod tests {
@@ -168,7 +228,7 @@ mod tests {
         let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         // Linear from the last two: 2 · 9 − 4 = 14 (the quadratic through all three: 16).
         assert!(p.q.iter().all(|q| (q - 14.0).abs() < 1e-12), "{:?}", p.q);
-        // Right after the switch the whole history is extrapolated (see `predict`).
+        // Right after the switch the last three are extrapolated (see `predict`).
         let h = [
             state(&m, 1.0, -0.5),
             state(&m, 2.0, -0.4),
@@ -178,8 +238,56 @@ mod tests {
         assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
     }
 
+    /// Five solutions of one pattern at s = s₀ + k h with q = s⁴ (the other unknowns s).
+    fn quartic_history(m: &Model, s0: f64, h: f64) -> Vec<RobotState> {
+        (0..5)
+            .map(|k| {
+                let s = s0 + k as f64 * h;
+                let mut state = state(m, s, 1.0);
+                state.q.iter_mut().for_each(|q| *q *= *q);
+                state
+            })
+            .collect()
+    }
+
     #[test]
-    fn the_predictor_of_a_redundant_design_always_extrapolates_the_whole_history() {
+    fn the_predictor_is_quartic_from_five_solutions_of_one_pattern() {
+        let m = model("lilge2022.ron");
+        // Short steps, s = 1, 1.01, …, 1.04: the quartic is exact (1.05⁴) and agrees with
+        // the quadratic (off by 2.5e-5, 5.5e-4 of the last step's change).
+        let h = quartic_history(&m, 1.0, 0.01);
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
+        assert!(
+            p.q.iter().all(|q| (q - 1.05f64.powi(4)).abs() < 1e-12),
+            "{:?}",
+            p.q
+        );
+        // Long steps, s = 1 … 5: the quartic (1296) differs from the quadratic through
+        // s = 3, 4, 5 (3 · 625 − 3 · 256 + 81 = 1188) by 29 % of the last step: the
+        // quadratic.
+        let mut h = quartic_history(&m, 1.0, 1.0);
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
+        assert!(p.q.iter().all(|q| (q - 1188.0).abs() < 1e-9), "{:?}", p.q);
+        // A switch at the newest solution: the quadratic through the last three, whatever
+        // the agreement.
+        let mut short = quartic_history(&m, 1.0, 0.01);
+        for s in [&mut h, &mut short] {
+            s[4].y_u = state(&m, 5.0, -1.0).y_u;
+        }
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
+        assert!(p.q.iter().all(|q| (q - 1188.0).abs() < 1e-9), "{:?}", p.q);
+        let quadratic = 3.0 * 1.04f64.powi(4) - 3.0 * 1.03f64.powi(4) + 1.02f64.powi(4);
+        let p = predict(&m, &short.iter().collect::<Vec<_>>()).unwrap();
+        assert!(
+            p.q.iter().all(|q| (q - quadratic).abs() < 1e-12),
+            "{:?}",
+            p.q
+        );
+        assert!((quadratic - 1.05f64.powi(4)).abs() > 1e-5);
+    }
+
+    #[test]
+    fn the_predictor_of_a_redundant_design_extrapolates_the_last_three_solutions() {
         let m = model("lilge2022_redundant.ron");
         let h = [
             state(&m, 1.0, -0.5),
@@ -188,5 +296,15 @@ mod tests {
         ];
         let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
+        // Five of one pattern, close together (where a 6-DoF design takes the quartic):
+        // the quadratic through the last three.
+        let h = quartic_history(&m, 1.0, 0.01);
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
+        let quadratic = 3.0 * 1.04f64.powi(4) - 3.0 * 1.03f64.powi(4) + 1.02f64.powi(4);
+        assert!(
+            p.q.iter().all(|q| (q - quadratic).abs() < 1e-12),
+            "{:?}",
+            p.q
+        );
     }
 }

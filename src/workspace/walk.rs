@@ -21,7 +21,7 @@ use super::chord_jacobian::JacobianHistory;
 use super::collision::{CollisionChecker, first_collision_of};
 use super::ends::End;
 use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
-use super::predict::{PREDICTOR_POINTS, in_zeta, predict, predicted_state};
+use super::predict::{PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state};
 use super::settings::{CollisionPolicy, WorkspaceSettings};
 
 /// Counters shared by the workers (summed; their totals do not depend on the schedule).
@@ -468,14 +468,6 @@ impl RayStart {
 /// 303; 302 of those exceed 0.3 × the last change of q, as do 1 041 of the steps where
 /// both agree (the price: one run more at 0.7 % of the steps).
 const BRANCH_JUMP: f64 = 0.3;
-
-/// ‖a − b‖_∞.
-fn max_difference(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
 
 /// Substeps of a ray step where the whole step fails ([`Worker::step_in_substeps`]).
 const SUBSTEPS: usize = 4;
