@@ -1201,13 +1201,14 @@ fn expected_last_residual<S: NonlinearSystem>(
     }
 }
 
-/// A warm start's first chord step is evaluated as the run's expected last residual
-/// when the last run's first step, applied to this ‖F₀‖, predicts at most this multiple
-/// of the tolerance ([`start_from_last_jacobian`]). Measured on the workspace sweep of
-/// the reference design (z ∈ [−6, 0] mm, φ = 0.2, one thread, the predictor's quartic):
-/// without the prediction 8 320 residual integrations and 3 678 with sensitivities;
-/// with 0.3, 7 212 and 3 680; with 0.9, 6 528 and 3 706 (26 trials mispredicted, each
-/// a Jacobian's tangents in vain); 1.0 is as good.
+/// A warm start's first chord step ([`NewtonScratch::reuse_jacobian_once`]) is evaluated
+/// as the run's expected last residual ([`NonlinearSystem::final_residual`]) when the
+/// last run's first step, applied to this ‖F₀‖, predicts at most this multiple of the
+/// tolerance. Measured on the workspace sweep of the reference design (z ∈ [−6, 0] mm,
+/// φ = 0.2, one thread, the predictor's quartic): without the prediction 8 320 residual
+/// integrations and 3 678 with sensitivities; with 0.3, 7 212 and 3 680; with 0.9, 6 528
+/// and 3 706 (26 trials mispredicted, each a Jacobian's tangents in vain); 1.0 is as
+/// good.
 pub const FIRST_STEP_PREDICTION: f64 = 1.0;
 
 /// A system of m nonlinear equations F(x) = 0 in n ≥ m unknowns (an underdetermined

@@ -14,9 +14,10 @@ use crate::rod::tendon::TendonUnknown;
 /// with the extrapolated Jacobians ([`super::chord_jacobian`]) of as many solutions and
 /// the first chord step's expected last residual ([`crate::newton::FIRST_STEP_PREDICTION`]):
 /// quadratic from three, 8 726 residual integrations and 3 684 with sensitivities, 4.762 G
-/// instructions; quartic from five, 6 236 and 3 725, 4.579 G (−3.8 %), the same cells.
-/// From four (cubic), or from five but across a tendon's switch, more Newton Jacobians
-/// (566 and 624 instead of 474) where a prediction crosses the switch.
+/// instructions; quartic from five, 6 236 and 3 725, 4.580 G (−3.8 %), the same cells.
+/// From four or five with the whole history across a tendon's switch (not only the last
+/// three, as [`same_regime`] has it now), more Newton Jacobians (566 and 624 instead of
+/// 474) where the prediction crosses the switch.
 pub(super) const PREDICTOR_POINTS: usize = 5;
 
 /// The extrapolation of more than three solutions is used where it differs from the
