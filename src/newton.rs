@@ -2074,7 +2074,7 @@ mod tests {
                     sc.first_chord_ratio = ratio;
                 }
             }
-            let report = if prepares {
+            let (report, prepared) = if prepares {
                 // The prepared residual at x itself ([`Prepared`] with no shift).
                 let mut system = Prepared {
                     inner: Shifted(target),
@@ -2082,12 +2082,14 @@ mod tests {
                     prepared: 0,
                 };
                 let report = solve(&mut system, &mut x, &settings, &mut sc).unwrap();
-                out.push((x.clone(), report, system.prepared));
-                continue;
+                (report, system.prepared)
             } else {
-                solve(&mut Shifted(target), &mut x, &settings, &mut sc).unwrap()
+                (
+                    solve(&mut Shifted(target), &mut x, &settings, &mut sc).unwrap(),
+                    0,
+                )
             };
-            out.push((x.clone(), report, 0));
+            out.push((x.clone(), report, prepared));
         }
         out
     }
@@ -2101,7 +2103,7 @@ mod tests {
         let t = [1.0, 1.0 + 1e-9, 1.0 + 2e-9, 1.0 + 3e-9];
         let plain = warm_path(&t, false, None);
         let prepared = warm_path(&t, true, None);
-        for (k, ((x, report, _), (y, prepared_report, finals))) in
+        for (k, ((x, report, _), (y, prepared_report, _))) in
             plain.iter().zip(&prepared).enumerate()
         {
             assert_eq!(x, y);
@@ -2114,7 +2116,6 @@ mod tests {
             if k > 0 {
                 assert_eq!(report.iterations, 1, "{report:?}");
             }
-            let _ = finals;
         }
         // The second run has no ratio to go by; the third and fourth have (the first ends
         // as any run, by `ends_the_run`).

@@ -165,9 +165,7 @@ fn same_regime<'h, 's>(model: &Model, history: &'h [&'s RobotState]) -> &'h [&'s
         .rev()
         .take_while(|s| same_pattern(s, last))
         .count();
-    if run == n {
-        history
-    } else if run >= 2 {
+    if run >= 2 {
         &history[n - run..]
     } else {
         quadratic
