@@ -409,21 +409,7 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
-/// Whether every entry is finite: Σ 0·x is ±0 for finite entries and NaN once one is
-/// NaN or infinite (four partial sums, no branch per entry: a quarter of the
-/// instructions of `iter().all(is_finite)`).
-#[inline(always)]
-pub(crate) fn all_finite(x: &[f64]) -> bool {
-    let mut acc = [0.0; 4];
-    let chunks = x.chunks_exact(4);
-    let tail = chunks.remainder().iter().fold(0.0, |s, v| s + v * 0.0);
-    for c in chunks {
-        for i in 0..4 {
-            acc[i] += c[i] * 0.0;
-        }
-    }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail == 0.0
-}
+pub(crate) use crate::linalg::all_finite;
 
 #[inline(always)]
 fn axpy(a: f64, x: &[f64], y: &mut [f64]) {

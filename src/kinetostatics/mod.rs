@@ -457,7 +457,7 @@ impl Solver {
         }
         self.newton.set_last_jacobian(|own| {
             own.copy_from(jac);
-            jac.iter().all(|v| v.is_finite())
+            crate::linalg::all_finite(jac.as_slice())
         });
         self.newton_system = Some(false);
         self.seeded = true;
