@@ -123,16 +123,37 @@ pub(super) fn max_difference(a: &[f64], b: &[f64]) -> f64 {
 /// The values one step past the last of `xs` (equal steps, oldest first) into `out`: the
 /// polynomial through up to five points (Σ_k (−1)^(m−1−k) C(m, k) x_k for m points), the
 /// last itself from one.
+///
+/// One loop per point count, over zipped slices: the count matched once per call, no
+/// index checks, so the loop vectorizes (the same operations in the same order per entry
+/// as matching per entry, which cost 29 instructions an entry: 1.8 % of the reference
+/// sweep's instructions, mostly the 900 entries of each extrapolated Jacobian).
 pub(super) fn extrapolate(xs: &[&[f64]], out: &mut [f64]) {
-    let last = xs[xs.len() - 1];
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = match xs {
-            [a, b, c, d, e] => 5.0 * e[i] - 10.0 * d[i] + 10.0 * c[i] - 5.0 * b[i] + a[i],
-            [a, b, c, d] => 4.0 * d[i] - 6.0 * c[i] + 4.0 * b[i] - a[i],
-            [a, b, c] => 3.0 * c[i] - 3.0 * b[i] + a[i],
-            [a, b] => 2.0 * b[i] - a[i],
-            _ => last[i],
-        };
+    match *xs {
+        [a, b, c, d, e] => {
+            let points = a.iter().zip(b).zip(c.iter().zip(d)).zip(e);
+            for (o, (((a, b), (c, d)), e)) in out.iter_mut().zip(points) {
+                *o = 5.0 * e - 10.0 * d + 10.0 * c - 5.0 * b + a;
+            }
+        }
+        [a, b, c, d] => {
+            let points = a.iter().zip(b).zip(c.iter().zip(d));
+            for (o, ((a, b), (c, d))) in out.iter_mut().zip(points) {
+                *o = 4.0 * d - 6.0 * c + 4.0 * b - a;
+            }
+        }
+        [a, b, c] => {
+            for (o, ((a, b), c)) in out.iter_mut().zip(a.iter().zip(b).zip(c)) {
+                *o = 3.0 * c - 3.0 * b + a;
+            }
+        }
+        [a, b] => {
+            for (o, (a, b)) in out.iter_mut().zip(a.iter().zip(b)) {
+                *o = 2.0 * b - a;
+            }
+        }
+        [.., last] => out.copy_from_slice(&last[..out.len()]),
+        [] => {}
     }
 }
 
