@@ -420,9 +420,6 @@ pub fn nalgebra_dot(a: &[f64], b: &[f64]) -> f64 {
     sum
 }
 
-/// Whether matrixmultiply (nalgebra's dense product) sums with fused multiply–adds on
-/// this CPU (its x86-64 FMA and AVX-512 kernels), so that [`scaled_gram_lower`] equals
-/// nalgebra's product bit for bit: what the tests that compare the two can assume.
 /// Whether every entry is finite: Σ 0·x is ±0 for finite entries and NaN once one is
 /// NaN or infinite (four partial sums, no branch per entry: a quarter of the
 /// instructions of `iter().all(is_finite)`).
@@ -439,6 +436,9 @@ pub(crate) fn all_finite(x: &[f64]) -> bool {
     (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail == 0.0
 }
 
+/// Whether matrixmultiply (nalgebra's dense product) sums with fused multiply–adds on
+/// this CPU (its x86-64 FMA and AVX-512 kernels), so that [`scaled_gram_lower`] equals
+/// nalgebra's product bit for bit: what the tests that compare the two can assume.
 #[cfg(test)]
 pub(crate) fn matrixmultiply_fuses() -> bool {
     #[cfg(target_arch = "x86_64")]

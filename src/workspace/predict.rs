@@ -122,7 +122,7 @@ pub(super) fn max_difference(a: &[f64], b: &[f64]) -> f64 {
 
 /// The values one step past the last of `xs` (equal steps, oldest first) into `out`: the
 /// polynomial through up to five points (Σ_k (−1)^(m−1−k) C(m, k) x_k for m points), the
-/// last itself from one.
+/// last itself from one (or from more than five); `out` unchanged from none.
 ///
 /// One loop per point count, over zipped slices: the count matched once per call, no
 /// index checks, so the loop vectorizes (the same operations in the same order per entry
