@@ -21,8 +21,8 @@ use crate::model::{Model, Pose};
 use crate::rod::rhs::hat;
 use crate::rod::tendon::TendonUnknown;
 use crate::rod::{
-    LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, LegsScratch, Wrench, integrate_leg,
-    integrate_legs,
+    LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, LegsScratch, ShapeDetail, Wrench,
+    integrate_leg, integrate_legs,
 };
 
 /// Where the residual is evaluated: platform pose, actuation, external wrench (world
@@ -88,10 +88,12 @@ pub struct BoundaryScratch {
     starts: [LegStart; 3],
     trial: DVector<f64>,
     base: DVector<f64>,
-    /// Every leg's frames at its disks from the last exact evaluation, when recording.
+    /// Every leg's frames at its disks (or only its knots) from the last exact
+    /// evaluation, when recording.
     shapes: Option<Box<[LegShape; 3]>>,
-    /// Whether exact evaluations record `shapes` (kept allocated while paused).
-    recording: bool,
+    /// What exact evaluations record into `shapes`, if anything (the buffers are kept
+    /// allocated while paused).
+    recording: Option<ShapeDetail>,
     /// Evaluations so far: [`boundary_residual`] calls, [`boundary_derivatives`] calls
     /// (the tests' independent count of a solve's work).
     evaluations: [usize; 2],
@@ -113,8 +115,8 @@ struct ExactIntegration {
     /// The tension directions of each leg (bit k: tendon k) and the directions in all.
     tensions: [u32; 3],
     directions: usize,
-    /// Whether it recorded the shapes.
-    shapes: bool,
+    /// What it recorded of the legs' shapes, if anything.
+    shapes: Option<ShapeDetail>,
 }
 
 impl ExactIntegration {
@@ -123,7 +125,7 @@ impl ExactIntegration {
         self.starts == wanted.starts
             && self.tensions == wanted.tensions
             && self.directions == wanted.directions
-            && (self.shapes || !wanted.shapes)
+            && self.shapes >= wanted.shapes
     }
 }
 
@@ -150,7 +152,7 @@ impl BoundaryScratch {
             trial: DVector::zeros(model.n_residuals()),
             base: DVector::zeros(model.n_residuals()),
             shapes: None,
-            recording: false,
+            recording: None,
             evaluations: [0; 2],
             slack_tension_directions: false,
             integrated: None,
@@ -204,29 +206,36 @@ impl BoundaryScratch {
     /// Starts (or stops) recording every leg's frames at its disks in each exact
     /// evaluation ([`boundary_derivatives`]), at the cost of a partial step (primal only)
     /// to each disk inside an integration step, about one residual evaluation for the
-    /// bundled 13-disk legs: the workspace sweep checks collisions on the frames of its
-    /// per-point analysis instead of integrating the legs once more.
+    /// bundled 13-disk legs (the workspace sweep records only the knots: see
+    /// [`CollisionChecker::clear_by_knots`](crate::workspace::collision::CollisionChecker::clear_by_knots)).
     /// Turning it off keeps the buffers, so switching it on and off around single
     /// evaluations allocates nothing.
     pub fn record_shapes(&mut self, model: &Model, on: bool) {
-        if on {
+        self.record(model, on.then_some(ShapeDetail::Disks));
+    }
+
+    /// Starts recording `detail` of every leg's backbone in each exact evaluation
+    /// ([`BoundaryScratch::record_shapes`] with [`ShapeDetail::Disks`]; the knots alone
+    /// cost nothing more than the evaluation), or stops recording (`None`).
+    pub fn record(&mut self, model: &Model, detail: Option<ShapeDetail>) {
+        if detail.is_some() {
             self.allocate_shapes(model);
         }
-        self.recording = on;
+        self.recording = detail;
     }
 
     /// Allocates the shapes' buffers, once.
     fn allocate_shapes(&mut self, model: &Model) {
         if self.shapes.is_none() {
-            let shape = || LegShape::with_capacity(model.leg.n_disks);
+            let shape = || LegShape::new(&model.leg);
             self.shapes = Some(Box::new([shape(), shape(), shape()]));
         }
     }
 
-    /// The legs' frames at their disks from the last [`boundary_derivatives`], when
-    /// recording ([`BoundaryScratch::record_shapes`]).
+    /// The legs' frames at their disks (or only their knots, as recorded) from the last
+    /// [`boundary_derivatives`], when recording ([`BoundaryScratch::record`]).
     pub fn shapes(&self) -> Option<&[LegShape; 3]> {
-        self.shapes.as_deref().filter(|_| self.recording)
+        self.shapes.as_deref().filter(|_| self.recording.is_some())
     }
 
     /// The leg tips of the last evaluation.
@@ -362,7 +371,8 @@ pub fn boundary_residual(
 }
 
 /// Evaluates b at `p` as [`boundary_residual`] does, but integrates the legs with their
-/// sensitivities (and the shapes, when recording or if `shapes`), so that a
+/// sensitivities (and what the buffers record of the shapes, at least the knots if
+/// `knots`), so that a
 /// [`boundary_derivatives`] at the same leg starts next needs no integration: for a
 /// point where the Jacobian is likely asked next (a solve's last iterate before the
 /// analysis of its solution, or the start of the next solve from it). Counted as a
@@ -374,32 +384,36 @@ pub fn boundary_residual_with_derivatives(
     model: &Model,
     sc: &mut BoundaryScratch,
     p: &BoundaryPoint,
-    shapes: bool,
+    knots: bool,
     r: &mut DVector<f64>,
 ) -> Result<(), SolveError> {
     sc.evaluations[0] += 1;
-    if shapes {
+    if knots {
         sc.allocate_shapes(model);
     }
-    integrate_with_derivatives(model, sc, p, shapes)?;
+    integrate_with_derivatives(model, sc, p, knots)?;
     assemble_residual(model, p, &sc.ends, r);
     Ok(())
 }
 
 /// Integrates the legs at `p` with sensitivities into `sc` (the directions
-/// [`select_tension_directions`] picks; the shapes when recording or if `shapes`),
-/// unless the buffers hold such an integration from the same starts already.
+/// [`select_tension_directions`] picks; what the buffers record of the shapes, at least
+/// the knots if `knots`), unless the buffers hold such an integration from the same
+/// starts already.
 fn integrate_with_derivatives(
     model: &Model,
     sc: &mut BoundaryScratch,
     p: &BoundaryPoint,
-    shapes: bool,
+    knots: bool,
 ) -> Result<(), SolveError> {
     for i in 0..3 {
         sc.starts[i] = leg_start(model, i, p.q, p.y_u, p.tendon_unknown);
     }
     let (tensions, directions) = select_tension_directions(model, p, sc.slack_tension_directions);
-    let recording = (sc.recording || shapes) && sc.shapes.is_some();
+    let recording = sc
+        .recording
+        .max(knots.then_some(ShapeDetail::Knots))
+        .filter(|_| sc.shapes.is_some());
     let wanted = ExactIntegration {
         starts: sc.starts,
         tensions,
@@ -414,8 +428,13 @@ fn integrate_with_derivatives(
     for (sens, bits) in sc.sens.iter_mut().zip(tensions) {
         sens.select_tensions(bits, directions);
     }
-    let shapes = match &mut sc.shapes {
-        Some(s) if recording => Some(&mut s[..]),
+    let shapes = match (&mut sc.shapes, recording) {
+        (Some(s), Some(detail)) => {
+            for shape in s.iter_mut() {
+                shape.detail = detail;
+            }
+            Some(&mut s[..])
+        }
         _ => None,
     };
     integrate_legs(

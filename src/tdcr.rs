@@ -156,7 +156,7 @@ impl TdcrSolver {
         let slacks = (0..nt)
             .map(|k| state.gammas.get(k).map_or(0.0, |&g| slack(g)))
             .collect();
-        let mut shape = LegShape::with_capacity(self.model.n_disks);
+        let mut shape = LegShape::new(&self.model);
         let mut end = LegEnd::zeros();
         integrate_leg(
             &self.model,

@@ -97,7 +97,7 @@ fn leg_integration_and_the_newton_loop_do_not_allocate() {
     let mut scratch = LegScratch::new();
     let mut end = LegEnd::zeros();
     let mut sens = LegSensitivities::new(8);
-    let mut shape = LegShape::with_capacity(model.n_disks);
+    let mut shape = LegShape::new(&model);
     let n = allocations_during(|| {
         for _ in 0..3 {
             integrate_leg(&model, &start, &mut scratch, &mut end, None).unwrap();

@@ -10,6 +10,7 @@ use nalgebra::{Rotation3, Vector3};
 use tdpcr::Tdpcr;
 use tdpcr::kinetostatics::{RobotState, Solver};
 use tdpcr::rod::Wrench;
+use tdpcr::workspace::collision::CollisionChecker;
 use tdpcr::workspace::{WorkspaceMap, WorkspaceSettings, files, sweep_workspace};
 
 fn reference() -> Tdpcr {
@@ -452,21 +453,55 @@ fn one_sided_kink_columns_keep_the_map_for_fewer_jacobians() {
     assert!(compared > 5000, "{compared} cells compared");
 }
 
+/// The ψ = 0 twin and the plane z = 0 of its sweep at R_ee = Rz(−30°) (the paper's Fig. 7
+/// slice, with colliding cells) at grid step `step` \[m\] and ray spacing `angle_step`.
+fn rotated_psi0_slice(step: f64, angle_step: f64) -> (Tdpcr, WorkspaceSettings) {
+    let design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
+    let settings = WorkspaceSettings {
+        rotvec: [0.0, 0.0, -std::f64::consts::PI / 6.0],
+        step,
+        angle_step,
+        z_range: [0.0, 0.0],
+        ..Default::default()
+    };
+    (design, settings)
+}
+
 /// The home configuration is a cold solve and stays two-sided: with one-sided kink
 /// columns the ψ = 0 twin's home at R_ee = Rz(−30°) (the paper's Fig. 7 slice) landed on
 /// another equilibrium and the sweep had no valid home (0 cells; 167 collision cells
 /// with the right one).
 #[test]
 fn the_home_of_a_rotated_slice_is_the_two_sided_cold_solve() {
-    let design = Tdpcr::from_ron_file(design_path("lilge2022_psi0.ron")).unwrap();
-    let settings = WorkspaceSettings {
-        rotvec: [0.0, 0.0, -std::f64::consts::PI / 6.0],
-        step: 0.01,
-        angle_step: 0.8,
-        z_range: [0.0, 0.0],
-        ..Default::default()
-    };
+    let (design, settings) = rotated_psi0_slice(0.01, 0.8);
     let map = sweep_workspace(&design, &settings).unwrap();
     assert_eq!(map.summary.planes_reached, 1, "{:?}", map.summary.path_ends);
     assert!(map.summary.counts.reachable > 0);
+}
+
+/// The sweep rules out collisions from the legs' knots where it can and integrates the
+/// legs to their disks elsewhere: every cell's collision flag is what the check at the
+/// disks gives for its state, on a slice with colliding cells (the ψ = 0 twin at
+/// R_ee = Rz(−30°)), and most states need no second integration.
+#[test]
+fn knots_decide_collisions_as_the_disks_do() {
+    let (design, settings) = rotated_psi0_slice(0.005, 0.2);
+    let map = sweep_workspace(&design, &settings).unwrap();
+    let solver = Solver::new(&design).unwrap();
+    let model = solver.model();
+    let mut checker = CollisionChecker::new(model);
+    let mut collisions = 0;
+    for p in &map.points {
+        let at_disks = checker.check(model, &p.state).unwrap().is_some();
+        assert_eq!(p.collision, at_disks, "cell {:?}", p.cell);
+        collisions += usize::from(at_disks);
+    }
+    let s = &map.summary;
+    assert!(collisions > 10, "{collisions} colliding cells");
+    assert!(
+        s.collision_integrations >= collisions && 2 * s.collision_integrations < s.solves,
+        "{} second integrations, {collisions} collisions, {} solves",
+        s.collision_integrations,
+        s.solves
+    );
 }

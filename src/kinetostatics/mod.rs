@@ -54,7 +54,7 @@ use crate::input_range::{diverged_if_non_finite, parallel_robot_inputs};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonScratch, NewtonSettings};
 use crate::rod::tendon::TendonUnknown;
-use crate::rod::{LegShape, Wrench};
+use crate::rod::{LegShape, ShapeDetail, Wrench};
 use checks::{
     actuation_violations, analysis_violations, check_init, checked_wrench, pose_violations,
 };
@@ -198,9 +198,10 @@ impl Solver {
     }
 
     /// Whether each solve's last residual, where Newton expects it to be its last, is
-    /// evaluated with the legs' sensitivities and shapes for the analysis of the
-    /// solution that follows ([`Solver::analyze`], [`Solver::blocks_at`] with shapes
-    /// recorded): that analysis then reuses the integration instead of repeating it.
+    /// evaluated with the legs' sensitivities and knots (and what else the solver
+    /// records, [`Solver::record_shape_detail`]) for the analysis of the solution that
+    /// follows ([`Solver::analyze`], [`Solver::blocks_at`] recording at most that): that
+    /// analysis then reuses the integration instead of repeating it.
     /// For callers that analyze every solution within the actuation limits (the
     /// workspace sweep); off by default, since a solve not followed by that analysis
     /// pays a Jacobian's integration for its last residual. Solutions, iterates and
@@ -527,8 +528,17 @@ impl Solver {
         self.boundary.record_shapes(&self.model, on);
     }
 
-    /// The legs' frames at their disks from the last exact-Jacobian evaluation, when
-    /// recording ([`Solver::record_shapes`]).
+    /// Starts recording `detail` of every leg's backbone in each exact-Jacobian
+    /// evaluation, or stops recording (`None`): [`Solver::record_shapes`] records the
+    /// disks' frames, [`ShapeDetail::Knots`] only the positions at the integration's step
+    /// ends, which cost nothing more than the evaluation
+    /// ([`BoundaryScratch::record`]).
+    pub fn record_shape_detail(&mut self, detail: Option<ShapeDetail>) {
+        self.boundary.record(&self.model, detail);
+    }
+
+    /// The legs' frames at their disks (or their knots) from the last exact-Jacobian
+    /// evaluation, when recording ([`Solver::record_shape_detail`]).
     pub fn shapes(&self) -> Option<&[LegShape; 3]> {
         self.boundary.shapes()
     }

@@ -89,7 +89,7 @@ pub(super) struct IkSystem<'a> {
     pub(super) speculate: bool,
     /// Whether a run's expected last residual is prepared for the Jacobian at its
     /// solution ([`LineSearchSystem::final_residual`]): `Some(true)` for its analysis
-    /// (with the legs' shapes, where q is within the actuation limits), `Some(false)`
+    /// (with the legs' knots, where q is within the actuation limits), `Some(false)`
     /// for the next run's start.
     pub(super) prepare: Option<bool>,
 }
@@ -172,7 +172,7 @@ impl LineSearchSystem for IkSystem<'_> {
     fn final_residual(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
         let nq = self.model.n_actuators();
         // An analysis sees only solutions within the actuation limits.
-        let Some(shapes) = self
+        let Some(knots) = self
             .prepare
             .filter(|&analysis| !analysis || self.model.within_limits(&x[..nq]))
         else {
@@ -180,7 +180,7 @@ impl LineSearchSystem for IkSystem<'_> {
         };
         self.evaluated.count_evaluation(false);
         let at = (self.pose, &x[..nq], self.wrench);
-        restated_residual(self.model, self.boundary, at, &x[nq..], shapes, r)
+        restated_residual(self.model, self.boundary, at, &x[nq..], knots, r)
     }
 
     fn jacobian_row_sums(&self, x: &[f64], sums: &mut DVector<f64>) {

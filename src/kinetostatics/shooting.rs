@@ -377,7 +377,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
     }
 
     /// The residual at x with the tendon unknowns as the solution's state restates them
-    /// ([`as_restated`]), integrated with the sensitivities (and shapes) the analysis of
+    /// ([`as_restated`]), integrated with the sensitivities (and knots) the analysis of
     /// that state asks for, where q is within the actuation limits (an analysis sees no
     /// other solution).
     fn final_residual(&mut self, x: &DVector<f64>, r: &mut DVector<f64>) -> Result<(), SolveError> {
@@ -481,7 +481,7 @@ pub(super) fn restated_residual(
     boundary: &mut BoundaryScratch,
     (pose, q, wrench): (&Pose, &[f64], &Wrench),
     y_u: &[f64],
-    shapes: bool,
+    knots: bool,
     r: &mut DVector<f64>,
 ) -> Result<(), SolveError> {
     let mut restated = [0.0; 3 * (6 + MAX_TENDONS)];
@@ -495,7 +495,7 @@ pub(super) fn restated_residual(
         y_u: restated,
         tendon_unknown: SOLVER_TENDON_UNKNOWN,
     };
-    boundary_residual_with_derivatives(model, boundary, &p, shapes, r)
+    boundary_residual_with_derivatives(model, boundary, &p, knots, r)
 }
 
 /// x ⊕ step in the unknowns of `problem`: FK rotations compose, R ← exp(δθ^) R.

@@ -100,7 +100,7 @@ pub(super) fn solve_target(
 }
 
 /// Whether a run of the redundant IK from `guess` prepares its last residual for a
-/// Jacobian at its solution (`Some(shapes)`), and with the legs' shapes: for the
+/// Jacobian at its solution (`Some(knots)`), and with the legs' knots: for the
 /// analysis that follows each solution ([`Solver::prepare_for_analysis`]), or where
 /// the run starts from the solver's last solution (a path, whose next step will start
 /// from this run's solution with a Jacobian there; not with
@@ -146,6 +146,7 @@ mod tests {
     use crate::Tdpcr;
     use crate::analysis::AnalysisSettings;
     use crate::kinetostatics::Solution;
+    use crate::rod::ShapeDetail;
 
     fn solver(design: &str) -> Solver {
         let file = format!("{}/designs/{design}.ron", env!("CARGO_MANIFEST_DIR"));
@@ -224,7 +225,7 @@ mod tests {
     }
 
     /// A solver prepared for analysis (the workspace sweep's) gives the same solutions,
-    /// analyses and shapes as one without, with fewer integrations (steps of 0.2 mm, so
+    /// analyses and knots as one without, with fewer integrations (steps of 0.2 mm, so
     /// that the chord steps from the last solution's Jacobian contract well enough for
     /// the last residual to be predicted).
     #[test]
@@ -246,12 +247,12 @@ mod tests {
                     let solution = s.solve_ik_newton(&pose, &w, &last).unwrap();
                     // As the sweep analyses each solution and starts the next step from
                     // its Jacobian.
-                    s.record_shapes(true);
+                    s.record_shape_detail(Some(ShapeDetail::Knots));
                     let analysis = s
                         .analyze(&solution.state, &w, &AnalysisSettings::default())
                         .unwrap();
                     let shapes = format!("{:?}", s.shapes());
-                    s.record_shapes(false);
+                    s.record_shape_detail(None);
                     s.reuse_blocks_for_ik(&solution.state);
                     last = solution.state.clone();
                     results.push((solution.state, analysis, shapes));

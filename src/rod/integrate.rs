@@ -135,24 +135,56 @@ impl LegSensitivities {
     }
 }
 
-/// Backbone frames at the base and at every disk, for plots and collision checks.
+/// How much of a leg's backbone an integration records into its [`LegShape`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
+pub enum ShapeDetail {
+    /// The positions at the base and at every integration step's end (the knots,
+    /// [`LegModel::knot_arcs`]): copies of states the integration computes anyway.
+    Knots,
+    /// The knots and the frames at the base and at every disk: a partial step (primal
+    /// only) to each disk inside a step, about one residual evaluation for the bundled
+    /// 13-disk legs.
+    #[default]
+    Disks,
+}
+
+/// Backbone frames at the base and at every disk, for plots and collision checks, and
+/// the positions at the integration's knots.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LegShape {
+    /// What the next integration into this shape records ([`ShapeDetail::Disks`] unless
+    /// set otherwise); with [`ShapeDetail::Knots`] `arcs`, `positions` and `rotations`
+    /// are left empty.
+    pub detail: ShapeDetail,
     /// Arc lengths \[m\]: 0, then each disk.
     pub arcs: Vec<f64>,
     /// Backbone positions \[m\].
     pub positions: Vec<Vector3<f64>>,
     /// Backbone orientations.
     pub rotations: Vec<Matrix3<f64>>,
+    /// Backbone positions \[m\] at the arcs of [`LegModel::knot_arcs`]: the base, then
+    /// every integration step's end.
+    pub knots: Vec<Vector3<f64>>,
 }
 
 impl LegShape {
-    /// Empty shape with room for `n_disks + 1` frames.
+    /// Empty shape for legs of `model`, recording the disks, with room for all of its
+    /// frames and knots (no integration into it allocates).
+    pub fn new(model: &LegModel) -> Self {
+        let mut shape = Self::with_capacity(model.n_disks);
+        shape.knots.reserve_exact(model.knot_arcs().count());
+        shape
+    }
+
+    /// Empty shape with room for `n_disks + 1` frames, recording the disks (the knots'
+    /// buffer grows in the first integration; [`LegShape::new`] reserves it too).
     pub fn with_capacity(n_disks: usize) -> Self {
         Self {
+            detail: ShapeDetail::Disks,
             arcs: Vec::with_capacity(n_disks + 1),
             positions: Vec::with_capacity(n_disks + 1),
             rotations: Vec::with_capacity(n_disks + 1),
+            knots: Vec::new(),
         }
     }
 
@@ -163,10 +195,16 @@ impl LegShape {
         self.rotations.push(y.r.map(|e| e.lane(leg)));
     }
 
+    /// Appends the position of lane `leg` as the next knot.
+    fn push_knot<T: Real>(&mut self, y: &RodState<T>, leg: usize) {
+        self.knots.push(y.p.map(|e| e.lane(leg)));
+    }
+
     fn clear(&mut self) {
         self.arcs.clear();
         self.positions.clear();
         self.rotations.clear();
+        self.knots.clear();
     }
 }
 
@@ -472,17 +510,24 @@ fn integrate_lanes<const N: usize, T: Real>(
             tg.dy.set_initial::<N>(nt);
         }
     }
+    // The disks' frames only where a shape asks for them (each shape gets its detail).
+    let disks = shapes
+        .as_deref()
+        .is_some_and(|s| s.iter().any(|s| s.detail == ShapeDetail::Disks));
     if let Some(shapes) = shapes.as_deref_mut() {
         for (leg, shape) in shapes.iter_mut().enumerate() {
             shape.clear();
-            shape.push(0.0, &buf.y, leg);
+            shape.push_knot(&buf.y, leg);
+            if shape.detail == ShapeDetail::Disks {
+                shape.push(0.0, &buf.y, leg);
+            }
         }
     }
     // Disks are not step boundaries: a disk inside a step gets the state of a partial step
     // of the same method from the step's start; one at a step's end that step's state
     // (after the jumps of tendons ending there).
     let tol = 1e-12 * model.length;
-    let mut disk = 1;
+    let mut disk = if disks { 1 } else { model.n_disks + 1 };
     for iv in &model.intervals {
         let h = (iv.end - iv.start) / iv.steps as f64;
         for step in 0..iv.steps {
@@ -502,7 +547,9 @@ fn integrate_lanes<const N: usize, T: Real>(
                     // y_next; swapped back after recording.
                     rk_step::<0, T>(model, buf, iv.active, arc - from, 0, legs)?;
                     for (leg, shape) in shapes.iter_mut().enumerate() {
-                        shape.push(arc, &buf.y, leg);
+                        if shape.detail == ShapeDetail::Disks {
+                            shape.push(arc, &buf.y, leg);
+                        }
                     }
                     std::mem::swap(&mut buf.y, &mut buf.y_next);
                     disk += 1;
@@ -513,9 +560,14 @@ fn integrate_lanes<const N: usize, T: Real>(
                 apply_tendon_ends::<N, T>(model, buf, iv.terminating, nd, legs);
             }
             if let Some(shapes) = shapes.as_deref_mut() {
+                for (leg, shape) in shapes.iter_mut().enumerate() {
+                    shape.push_knot(&buf.y, leg);
+                }
                 while disk <= model.n_disks && model.disk_arc(disk) <= to + tol {
                     for (leg, shape) in shapes.iter_mut().enumerate() {
-                        shape.push(model.disk_arc(disk), &buf.y, leg);
+                        if shape.detail == ShapeDetail::Disks {
+                            shape.push(model.disk_arc(disk), &buf.y, leg);
+                        }
                     }
                     disk += 1;
                 }
@@ -932,6 +984,47 @@ mod tests {
                 error < 1e-7 * model.length,
                 "disk {j}: {error:.2e} m from the fine integration"
             );
+        }
+    }
+
+    /// A shape recording only the knots gets the same knots as one recording the disks
+    /// (one per step end after the base, at [`LegModel::knot_arcs`], the last the tip),
+    /// no frames, and the same tip and sensitivities, bit for bit.
+    #[test]
+    fn knots_are_the_step_ends_whatever_else_is_recorded() {
+        let (model, start) = (leg(), bent_start());
+        let run = |detail: ShapeDetail| {
+            let mut sc = LegScratch::new();
+            let mut end = LegEnd::zeros();
+            let mut sens = LegSensitivities::new(9);
+            let mut s = LegShape::new(&model);
+            s.detail = detail;
+            integrate_leg_with_sensitivities(
+                &model,
+                &start,
+                &mut sc,
+                &mut end,
+                &mut sens,
+                Some(&mut s),
+            )
+            .unwrap();
+            (end, sens.d, s)
+        };
+        let (end, d, disks) = run(ShapeDetail::Disks);
+        let (knots_end, knots_d, knots) = run(ShapeDetail::Knots);
+        assert_eq!((end, d), (knots_end, knots_d));
+        assert_eq!(knots.knots, disks.knots);
+        assert!(knots.positions.is_empty() && knots.arcs.is_empty() && knots.rotations.is_empty());
+        let steps: usize = model.intervals.iter().map(|iv| iv.steps).sum();
+        assert_eq!(knots.knots.len(), steps + 1);
+        assert_eq!(model.knot_arcs().count(), steps + 1);
+        assert_eq!(knots.knots.last(), Some(&end.p));
+        assert_eq!(knots.knots[0], start.base.position);
+        // A knot at a disk's arc is that disk's position.
+        for (k, arc) in model.knot_arcs().enumerate() {
+            if let Some(j) = disks.arcs.iter().position(|&a| (a - arc).abs() < 1e-12) {
+                assert_eq!(knots.knots[k], disks.positions[j], "knot {k} at {arc} m");
+            }
         }
     }
 }

@@ -104,6 +104,21 @@ impl LegModel {
         self.length * j as f64 / self.n_disks as f64
     }
 
+    /// Arc lengths \[m\] of the integration's knots: 0, then every step's end, as the
+    /// integrator computes them (the arcs of [`LegShape::knots`](super::LegShape)).
+    pub fn knot_arcs(&self) -> impl Iterator<Item = f64> + '_ {
+        std::iter::once(0.0).chain(self.intervals.iter().flat_map(|iv| {
+            let h = (iv.end - iv.start) / iv.steps as f64;
+            (1..=iv.steps).map(move |k| {
+                if k == iv.steps {
+                    iv.end
+                } else {
+                    iv.start + k as f64 * h
+                }
+            })
+        }))
+    }
+
     /// Largest tendon offset \[m\] (0 without tendons).
     pub fn max_offset(&self) -> f64 {
         self.tendon_offsets[..self.n_tendons]

@@ -14,6 +14,6 @@ pub mod tendon;
 pub use crate::spatial::{Frame, Wrench};
 pub use integrate::{
     LegEnd, LegScratch, LegSensitivities, LegShape, LegStart, LegsScratch, MAX_DIRECTIONS,
-    MAX_LEGS, integrate_leg, integrate_leg_with_sensitivities, integrate_legs,
+    MAX_LEGS, ShapeDetail, integrate_leg, integrate_leg_with_sensitivities, integrate_legs,
 };
 pub use leg_model::LegModel;

@@ -115,23 +115,101 @@ pub fn first_collision(
     None
 }
 
-/// Buffers for [`CollisionChecker::check`]: one leg integration scratch and three shapes.
+/// Bound on the backbone's speed |dp/ds| = |v| (1 + extension and shear strain) that the
+/// knot test ([`CollisionChecker::clear_by_knots`]) assumes: a disk at arc distance Δs
+/// from a knot is within this × Δs of it. Strains of the modelled rods stay below 1e-3
+/// (an elastic backbone yields long before); 1.5 leaves the test a factor of safety of
+/// about 1.5.
+pub const SPEED_BOUND: f64 = 1.5;
+
+/// Allowance \[m\] for the integration's own error in a disk's and a knot's position
+/// (the disks are within 1e-7 L, 15 nm for the bundled legs, of a 16× finer
+/// integration's): 1 µm.
+pub const POSITION_SLACK: f64 = 1e-6;
+
+/// Buffers for [`CollisionChecker::check`]: one leg integration scratch and three shapes,
+/// and the knots' margins of [`CollisionChecker::clear_by_knots`].
 #[derive(Debug, Clone)]
 pub struct CollisionChecker {
     scratch: LegsScratch,
     ends: [LegEnd; 3],
     shapes: [LegShape; 3],
+    /// (knot index, margin \[m\]) of every knot that is the nearest knot of a disk:
+    /// every such disk is within the margin of its knot.
+    knot_margins: Vec<(usize, f64)>,
+    /// How many knots a leg has ([`LegModel::knot_arcs`](crate::rod::LegModel::knot_arcs)).
+    knot_count: usize,
 }
 
 impl CollisionChecker {
     /// Buffers for `model`.
     pub fn new(model: &Model) -> Self {
-        let shape = || LegShape::with_capacity(model.leg.n_disks);
+        let shape = || LegShape::new(&model.leg);
+        let knots: Vec<f64> = model.leg.knot_arcs().collect();
+        let mut knot_margins: Vec<(usize, f64)> = Vec::new();
+        for disk in 1..=model.leg.n_disks {
+            let arc = model.leg.disk_arc(disk);
+            let (k, distance) = knots
+                .iter()
+                .map(|s| (s - arc).abs())
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap_or((0, arc));
+            let margin = SPEED_BOUND * distance + POSITION_SLACK;
+            match knot_margins.iter_mut().find(|(i, _)| *i == k) {
+                Some((_, m)) => *m = m.max(margin),
+                None => knot_margins.push((k, margin)),
+            }
+        }
         Self {
             scratch: LegsScratch::new(),
             ends: [LegEnd::zeros(); 3],
             shapes: [shape(), shape(), shape()],
+            knot_margins,
+            knot_count: knots.len(),
         }
+    }
+
+    /// Whether the legs' knots (`shapes` recorded with at least
+    /// [`ShapeDetail::Knots`](crate::rod::ShapeDetail) at the solved `state`) prove that
+    /// no disk collides: every disk is within its knot's margin (the arc distance to its
+    /// nearest knot × [`SPEED_BOUND`] + [`POSITION_SLACK`]), so knots farther apart than
+    /// 2 r plus their margins hold no overlapping disks, and a knot farther than r plus its
+    /// margin from the platform triangle no disk that crosses it. `false` says only that
+    /// the knots cannot tell ([`CollisionChecker::check`] can).
+    ///
+    /// Measured (the reference design's Δ = 3 mm sweep): see BENCHMARKS.md, section
+    /// "Collisions from the knots".
+    pub fn clear_by_knots(
+        &self,
+        model: &Model,
+        state: &RobotState,
+        shapes: &[LegShape; 3],
+    ) -> bool {
+        if shapes.iter().any(|s| s.knots.len() != self.knot_count) {
+            return false;
+        }
+        let r = model.leg.disk_radius;
+        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            let (knots_a, knots_b) = (&shapes[a].knots, &shapes[b].knots);
+            for &(ka, ma) in &self.knot_margins {
+                for &(kb, mb) in &self.knot_margins {
+                    let clearance = 2.0 * r + ma + mb;
+                    if (knots_a[ka] - knots_b[kb]).norm_squared() < clearance * clearance {
+                        return false;
+                    }
+                }
+            }
+        }
+        let pose = state.pose();
+        let platform = model
+            .coupling_points
+            .map(|c| pose.position + pose.rotation * c);
+        shapes.iter().all(|s| {
+            self.knot_margins
+                .iter()
+                .all(|&(k, m)| !sphere_crosses_triangle(&s.knots[k], r + m, &platform))
+        })
     }
 
     /// Integrates the three legs of a solved `state` (y_u with γ, as states carry it) to
@@ -185,6 +263,92 @@ pub fn first_collision_of(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::design::Tdpcr;
+    use crate::kinetostatics::Solver;
+    use crate::random::SplitMix64;
+    use crate::rod::Wrench;
+
+    /// Every disk is within its knot's margin, with the margin's factor of safety: over
+    /// solved states of every bundled robot design (FK at q = 0 and at random actuations),
+    /// no disk is farther from its nearest knot than 1.001 × the arc distance (the
+    /// backbone's speed |v| ≤ 1.001; [`SPEED_BOUND`] assumes 1.5), and the knots recorded
+    /// with the disks are the integration's knots, the last one the tip.
+    #[test]
+    fn disks_lie_within_their_knots_margins() {
+        let mut rng = SplitMix64::new(17);
+        for name in [
+            "lilge2022",
+            "lilge2022_psi0",
+            "lilge2022_redundant",
+            "lilge2022_redundant_psi0",
+        ] {
+            let file = format!("{}/designs/{name}.ron", env!("CARGO_MANIFEST_DIR"));
+            let mut solver = Solver::new(&Tdpcr::from_ron_file(&file).unwrap()).unwrap();
+            let model = solver.model().clone();
+            let mut checker = CollisionChecker::new(&model);
+            let knots: Vec<f64> = model.leg.knot_arcs().collect();
+            let mut solved = 0;
+            for draw in 0..6 {
+                let q: Vec<f64> = (0..model.n_actuators())
+                    .map(|_| {
+                        if draw == 0 {
+                            0.0
+                        } else {
+                            rng.uniform(-3e-3, 3e-3)
+                        }
+                    })
+                    .collect();
+                let Ok(solution) = solver.solve_fk(&q, &Wrench::default(), None) else {
+                    continue;
+                };
+                solved += 1;
+                checker.check(&model, &solution.state).unwrap();
+                for (leg, shape) in checker.shapes.iter().enumerate() {
+                    assert_eq!(shape.knots.len(), knots.len(), "{name}");
+                    assert_eq!(shape.knots.last(), shape.positions.last(), "{name}");
+                    assert_eq!(shape.knots[0], shape.positions[0], "{name}");
+                    for disk in 1..=model.leg.n_disks {
+                        let arc = model.leg.disk_arc(disk);
+                        let p = shape.positions[disk];
+                        let (k, ds) = knots
+                            .iter()
+                            .map(|s| (s - arc).abs())
+                            .enumerate()
+                            .min_by(|a, b| a.1.total_cmp(&b.1))
+                            .unwrap();
+                        let d = (p - shape.knots[k]).norm();
+                        assert!(
+                            d <= 1.001 * ds + 1e-12,
+                            "{name} leg {leg} disk {disk}: {d:.3e} m from knot {k} at {ds:.3e} m"
+                        );
+                        let margin = checker.knot_margins.iter().find(|m| m.0 == k).unwrap().1;
+                        assert!(d < margin);
+                    }
+                }
+            }
+            assert!(solved >= 4, "{name}: {solved} of 6 FK solves");
+        }
+    }
+
+    /// The knots clear the reference robot at q = 0 (the check at its disks finds
+    /// nothing), and do not clear a robot whose disks are so large that they collide.
+    #[test]
+    fn knots_clear_only_what_the_disks_clear() {
+        let file = format!("{}/designs/lilge2022.ron", env!("CARGO_MANIFEST_DIR"));
+        let design = Tdpcr::from_ron_file(&file).unwrap();
+        for (radius, collides) in [(0.006, false), (0.04, true)] {
+            let mut design = design.clone();
+            design.leg.disks.radius = radius;
+            let mut solver = Solver::new(&design).unwrap();
+            let model = solver.model().clone();
+            let q = vec![0.0; model.n_actuators()];
+            let state = solver.solve_fk(&q, &Wrench::default(), None).unwrap().state;
+            let mut checker = CollisionChecker::new(&model);
+            assert_eq!(checker.check(&model, &state).unwrap().is_some(), collides);
+            let clear = checker.clear_by_knots(&model, &state, &checker.shapes);
+            assert_eq!(clear, !collides, "disk radius {radius} m");
+        }
+    }
 
     const R: f64 = 0.006;
 

@@ -60,7 +60,7 @@ pub(super) fn reach_planes(
     home_worker.solver.one_sided_kinks = settings.one_sided_kinks;
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
-    let home = match home_worker.classify(model, home.state) {
+    let home = match home_worker.classify(model, home.state, work) {
         Ok(s) if s.end(settings.collisions).is_none() => s,
         _ => {
             return Ok(Planes {

@@ -191,6 +191,10 @@ pub struct WorkspaceSummary {
     pub residual_evaluations: usize,
     /// See `residual_evaluations`.
     pub jacobian_evaluations: usize,
+    /// Solutions within the limits whose legs were integrated once more to check
+    /// collisions at their disks: the rest were cleared by their knots, recorded by the
+    /// analysis ([`CollisionChecker::clear_by_knots`](super::collision::CollisionChecker::clear_by_knots)).
+    pub collision_integrations: usize,
     /// Worker threads.
     pub threads: usize,
     /// Wall time of the sweep (solves and measures, not file output) \[s\].
@@ -288,6 +292,7 @@ pub(super) fn summarize(
         newton_iterations: work.iterations.load(Ordering::Relaxed),
         residual_evaluations: work.residuals.load(Ordering::Relaxed),
         jacobian_evaluations: work.jacobians.load(Ordering::Relaxed),
+        collision_integrations: work.collision_integrations.load(Ordering::Relaxed),
         threads: rayon::current_num_threads(),
         wall_time_s: wall,
         solves_per_second: if wall > 0.0 {

@@ -14,11 +14,11 @@ use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
-use crate::rod::Wrench;
 use crate::rod::tendon::tension;
+use crate::rod::{ShapeDetail, Wrench};
 
 use super::chord_jacobian::JacobianHistory;
-use super::collision::{CollisionChecker, first_collision_of};
+use super::collision::CollisionChecker;
 use super::ends::End;
 use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
 use super::predict::{PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state};
@@ -35,6 +35,9 @@ pub(super) struct Work {
     pub(super) jacobians: AtomicUsize,
     /// Residual evaluations of the converged solves.
     pub(super) residuals: AtomicUsize,
+    /// Solutions whose legs were integrated once more to check collisions at the disks
+    /// (their knots could not rule one out).
+    pub(super) collision_integrations: AtomicUsize,
 }
 
 impl Work {
@@ -133,19 +136,25 @@ impl Worker {
     }
 
     /// Validity of a solved state (actuation limits, then collisions) and its measures.
-    pub(super) fn classify(&mut self, model: &Model, state: RobotState) -> Result<Sample, End> {
+    pub(super) fn classify(
+        &mut self,
+        model: &Model,
+        state: RobotState,
+        work: &Work,
+    ) -> Result<Sample, End> {
         if !model.within_limits(&state.q) {
             return Err(End::Limits);
         }
-        // Only the analysis records the legs' frames (the partial steps to the disks cost
-        // about a residual evaluation; Newton's Jacobians need no frames).
-        self.solver.record_shapes(true);
+        // The analysis records the legs' knots (free: the states at the integration's
+        // step ends); where they cannot rule out a collision, the legs are integrated
+        // once more to their disks.
+        self.solver.record_shape_detail(Some(ShapeDetail::Knots));
         let metrics = point_metrics(&mut self.solver, &state, &self.analysis);
-        let collision = self
+        let clear = self
             .solver
             .shapes()
-            .map(|shapes| first_collision_of(model, &state, shapes).is_some());
-        self.solver.record_shapes(false);
+            .is_some_and(|shapes| self.collisions.clear_by_knots(model, &state, shapes));
+        self.solver.record_shape_detail(None);
         let metrics = match metrics {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
@@ -154,13 +163,12 @@ impl Worker {
         // solutions, extrapolated to the next point.
         self.jacobians.push(model, &self.solver, &state);
         self.jacobians.seed(&mut self.solver);
-        // The analysis integrated the legs at `state` and kept their frames.
-        let collision = match collision {
-            Some(c) => c,
-            None => match self.collisions.check(model, &state) {
+        let collision = !clear && {
+            work.collision_integrations.fetch_add(1, Ordering::Relaxed);
+            match self.collisions.check(model, &state) {
                 Ok(c) => c.is_some(),
                 Err(e) => return Err(self.end_of(e.into())),
-            },
+            }
         };
         Ok(Sample {
             state,
@@ -202,7 +210,7 @@ impl Worker {
         let sol = self
             .solve_on_branch(&pose, guess, &newton, history, work)
             .map_err(|e| self.end_of(e))?;
-        self.classify(model, sol.state)
+        self.classify(model, sol.state, work)
     }
 
     /// The IK of a path step from `guess` (the prediction from `history`), first with
