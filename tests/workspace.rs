@@ -505,3 +505,46 @@ fn knots_decide_collisions_as_the_disks_do() {
         s.solves
     );
 }
+
+/// The sweep computes the unit-scaled rconds of the block matrices only for the points
+/// that represent cells: every cell's measures are still [`point_metrics`] of its state,
+/// bit for bit (the leg-switch flags aside, which the sweep sets from the neighbours), for
+/// the 6-DoF and the 9-DoF design, on a sweep with several samples in most cells.
+#[test]
+fn cells_get_the_measures_of_their_states_bit_for_bit() {
+    use tdpcr::workspace::metrics::{AnalysisSettings, point_metrics};
+    for name in ["lilge2022.ron", "lilge2022_redundant.ron"] {
+        let design = Tdpcr::from_ron_file(design_path(name)).unwrap();
+        let settings = WorkspaceSettings {
+            step: 0.01,
+            angle_step: 0.1,
+            z_range: [0.0, 0.0],
+            ..Default::default()
+        };
+        let map = sweep_workspace(&design, &settings).unwrap();
+        assert!(map.summary.solves > 2 * map.points.len(), "{name}");
+        let mut solver = Solver::new(&design).unwrap();
+        let bits = |r: &tdpcr::workspace::metrics::Rconds| {
+            [r.b_xu, r.b_qu, r.b_u, r.j_p, r.j_o, r.c_p, r.c_o].map(f64::to_bits)
+        };
+        for p in &map.points {
+            let m = point_metrics(&mut solver, &p.state, &AnalysisSettings::default()).unwrap();
+            let cell = p.cell;
+            assert_eq!(bits(&p.metrics.rcond), bits(&m.rcond), "{name} {cell:?}");
+            assert_eq!(
+                bits(&p.metrics.rcond_scaled),
+                bits(&m.rcond_scaled),
+                "{name} {cell:?}"
+            );
+            assert_eq!(
+                (p.metrics.stable, p.metrics.min_tension.to_bits()),
+                (m.stable, m.min_tension.to_bits()),
+                "{name} {cell:?}"
+            );
+            assert_eq!(
+                p.metrics.min_compliance_eigenvalue.to_bits(),
+                m.min_compliance_eigenvalue.to_bits()
+            );
+        }
+    }
+}

@@ -210,7 +210,7 @@ pub fn analyze_blocks(
     settings: &AnalysisSettings,
 ) -> Result<Analysis, AnalysisError> {
     // [B_u B_x] [δy; δx] = −[B_q B_w] [δq; δw]; with Qᵀ applied, R_x Z = Qᵀ [B_q B_w].
-    let mut f = Factors::new(model, blocks, y_u, 0)?;
+    let mut f = Factors::new(model, blocks, y_u, 0, true)?;
     let (ny, n, nq) = (f.ny, f.n, f.nq);
     let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
@@ -248,8 +248,32 @@ pub fn condition_blocks(
     y_u: &[f64],
     settings: &AnalysisSettings,
 ) -> Result<Conditioning, AnalysisError> {
+    condition_blocks_with(model, blocks, y_u, settings, true)
+}
+
+/// The unit-scaled rconds of \[B_x B_u\], \[B_q B_u\] and B_u of `blocks` that passed
+/// [`condition_blocks_with`] (so their sizes and entries are checked), as
+/// [`condition_blocks`] gives them in `rcond_scaled`, bit for bit (a singular matrix has
+/// rcond 0).
+pub(crate) fn scaled_block_rconds(model: &Model, blocks: &BoundaryJacobians) -> [f64; 3] {
+    let n = 3 * model.n_leg_unknowns() + 6;
+    with_work(n, |work| scaled_rconds(model, blocks, work))
+}
+
+/// [`condition_blocks`] with (`scaled`) or without the unit-scaled rconds of
+/// \[B_x B_u\], \[B_q B_u\] and B_u, a second factorization (without: their entries of
+/// `rcond_scaled` are NaN). For the workspace sweep, which needs them only at the points
+/// that represent its cells and gets them there from the same blocks by
+/// [`scaled_block_rconds`] (the same values, bit for bit).
+pub(crate) fn condition_blocks_with(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    y_u: &[f64],
+    settings: &AnalysisSettings,
+    scaled: bool,
+) -> Result<Conditioning, AnalysisError> {
     let ny = 3 * model.n_leg_unknowns();
-    let f = Factors::new(model, blocks, y_u, ny)?;
+    let f = Factors::new(model, blocks, y_u, ny, scaled)?;
     let (n, nq) = (f.n, f.nq);
     let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
@@ -271,6 +295,42 @@ struct Factors {
     nq: usize,
 }
 
+/// Runs `f` with this thread's analysis buffers, sized for n unknowns.
+fn with_work<T>(n: usize, f: impl FnOnce(&mut Work) -> T) -> T {
+    WORK.with_borrow_mut(|slot| {
+        let work = match slot {
+            Some(w) if w.lz.capacity() >= n + 3 => w,
+            _ => slot.insert(Work::new(n + 3)),
+        };
+        f(work)
+    })
+}
+
+/// The rconds of the unit-scaled \[B_x B_u\], \[B_q B_u\] and B_u ([`UnitScaling`]):
+/// rows divided and columns multiplied by their characteristic sizes, factored apart
+/// from the raw blocks (checked inputs, in `work`).
+fn scaled_rconds(model: &Model, blocks: &BoundaryJacobians, work: &mut Work) -> [f64; 3] {
+    let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
+    let ny = 3 * nu;
+    let n = ny + 6;
+    let scaling = UnitScaling::new(model);
+    // Rows, then the columns of B_u, B_x and B_q, in one kept buffer.
+    let mut buf = std::mem::take(&mut work.scales);
+    buf.clear();
+    buf.extend((0..n).map(|i| 1.0 / scaling.row(i)));
+    buf.extend((0..ny).map(|j| scaling.leg_unknown(j)));
+    buf.extend((0..6).map(|c| scaling.pose(c)));
+    buf.extend((0..nq).map(|j| scaling.actuation(j)));
+    let (rows, cols) = buf.split_at(n);
+    let (cols_u, cols) = cols.split_at(ny);
+    let (cols_x, cols_q) = cols.split_at(6);
+    let cols = [cols_u, cols_x, cols_q];
+    let scales = Scales { rows, cols: &cols };
+    let rconds = Triangles::new(blocks, nu, Some(scales), work).rconds;
+    work.scales = buf;
+    rconds
+}
+
 impl Factors {
     /// [`Factors::factor`], then [`Factors::solve`] for rows `from..n` of Z.
     ///
@@ -281,13 +341,15 @@ impl Factors {
         blocks: &BoundaryJacobians,
         y_u: &[f64],
         from: usize,
+        scaled: bool,
     ) -> Result<Self, AnalysisError> {
-        let mut f = Self::factor(model, blocks, y_u)?;
+        let mut f = Self::factor(model, blocks, y_u, scaled)?;
         f.solve(from)?;
         Ok(f)
     }
 
-    /// The raw and unit-scaled triangles and their rconds.
+    /// The raw triangles and their rconds, and (if `scaled`) the unit-scaled rconds
+    /// (else NaN).
     ///
     /// # Errors
     /// [`AnalysisError::Shape`] or [`AnalysisError::NonFinite`] for inputs that do not fit.
@@ -295,43 +357,35 @@ impl Factors {
         model: &Model,
         blocks: &BoundaryJacobians,
         y_u: &[f64],
+        scaled: bool,
     ) -> Result<Self, AnalysisError> {
         check_inputs(model, blocks, y_u)?;
         let n = 3 * model.n_leg_unknowns() + 6;
-        WORK.with_borrow_mut(|slot| {
-            let work = match slot {
-                Some(w) if w.lz.capacity() >= n + 3 => w,
-                _ => slot.insert(Work::new(n + 3)),
-            };
-            Ok(Self::factor_with(model, blocks, work))
-        })
+        Ok(with_work(n, |work| {
+            Self::factor_with(model, blocks, work, scaled)
+        }))
     }
 
     /// [`Factors::factor`] for checked inputs, in `work`.
-    fn factor_with(model: &Model, blocks: &BoundaryJacobians, work: &mut Work) -> Self {
+    fn factor_with(
+        model: &Model,
+        blocks: &BoundaryJacobians,
+        work: &mut Work,
+        scaled: bool,
+    ) -> Self {
         let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
         let ny = 3 * nu;
         let n = ny + 6;
         let raw = Triangles::new(blocks, nu, None, work);
-        let scaling = UnitScaling::new(model);
-        // Rows, then the columns of B_u, B_x and B_q, in one kept buffer.
-        let mut buf = std::mem::take(&mut work.scales);
-        buf.clear();
-        buf.extend((0..n).map(|i| 1.0 / scaling.row(i)));
-        buf.extend((0..ny).map(|j| scaling.leg_unknown(j)));
-        buf.extend((0..6).map(|c| scaling.pose(c)));
-        buf.extend((0..nq).map(|j| scaling.actuation(j)));
-        let (rows, cols) = buf.split_at(n);
-        let (cols_u, cols) = cols.split_at(ny);
-        let (cols_x, cols_q) = cols.split_at(6);
-        let cols = [cols_u, cols_x, cols_q];
-        let scales = Scales { rows, cols: &cols };
-        let scaled_rconds = Triangles::new(blocks, nu, Some(scales), work).rconds;
-        work.scales = buf;
+        let scaled_rconds = if scaled {
+            scaled_rconds(model, blocks, work)
+        } else {
+            [f64::NAN; 3]
+        };
         Self {
             raw,
             scaled_rconds,
-            scaling,
+            scaling: UnitScaling::new(model),
             ny,
             n,
             nq,

@@ -43,7 +43,9 @@ use std::time::Instant;
 
 use nalgebra::{DMatrix, DVector, Rotation3};
 
-use crate::analysis::{Analysis, AnalysisSettings, Conditioning, analyze_blocks, condition_blocks};
+use crate::analysis::{
+    Analysis, AnalysisSettings, Conditioning, analyze_blocks, condition_blocks_with,
+};
 use crate::boundary::{
     BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
     gamma_columns_to_linear,
@@ -581,23 +583,45 @@ impl Solver {
     }
 
     /// The [`Conditioning`] part of [`Solver::analyze`] (the same values, bit for bit)
-    /// by the leaner [`condition_blocks`]: what the workspace sweep keeps of each point.
+    /// by the leaner [`condition_blocks`](crate::analysis::condition_blocks): what the
+    /// workspace sweep keeps of each point.
     ///
     /// # Errors
-    /// As [`Solver::analyze`] (see [`condition_blocks`]).
+    /// As [`Solver::analyze`] (see
+    /// [`condition_blocks`](crate::analysis::condition_blocks)).
     pub fn condition(
         &mut self,
         state: &RobotState,
         extra: &Wrench,
         settings: &AnalysisSettings,
     ) -> Result<Conditioning, Error> {
+        self.condition_with(state, extra, settings, true)
+    }
+
+    /// [`Solver::condition`] with (`scaled`) or without the unit-scaled rconds of the three
+    /// block matrices (without: NaN in `rcond_scaled`;
+    /// [`crate::analysis::scaled_block_rconds`] of [`Solver::last_blocks`] gives them):
+    /// the workspace sweep's per-point measures.
+    pub(crate) fn condition_with(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        settings: &AnalysisSettings,
+        scaled: bool,
+    ) -> Result<Conditioning, Error> {
         self.analysis_blocks(state, extra, settings)?;
-        Ok(condition_blocks(
+        Ok(condition_blocks_with(
             &self.model,
             &self.blocks,
             &state.y_u,
             settings,
+            scaled,
         )?)
+    }
+
+    /// The exact blocks of the last [`Solver::blocks_at`] (and of every analysis).
+    pub(crate) fn last_blocks(&self) -> &BoundaryJacobians {
+        &self.blocks
     }
 
     /// The checks of [`Solver::analyze`]'s inputs, then the exact blocks at `state`.

@@ -6,8 +6,9 @@
 
 use serde::Serialize;
 
-use crate::analysis::AnalysisError;
+use crate::analysis::{AnalysisError, Conditioning, scaled_block_rconds};
 pub use crate::analysis::{AnalysisSettings, Rconds, Singularity};
+use crate::boundary::BoundaryJacobians;
 use crate::error::Error;
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::Model;
@@ -54,43 +55,85 @@ pub fn point_metrics(
     settings: &AnalysisSettings,
 ) -> Result<PointMetrics, Error> {
     match solver.condition(state, &Wrench::default(), settings) {
-        Ok(a) => Ok(PointMetrics {
-            rcond: a.rcond,
-            rcond_scaled: a.rcond_scaled,
-            singularity: a.singularity,
-            min_tension: a.min_tension,
-            stable: a.stability.stable,
-            min_compliance_eigenvalue: a.stability.eigenvalues[0],
-            leg_switch: false,
-        }),
-        Err(Error::Analysis(AnalysisError::Singular { .. })) => {
-            let zero = Rconds {
-                b_xu: 0.0,
-                b_qu: 0.0,
-                b_u: 0.0,
-                j_p: 0.0,
-                j_o: 0.0,
-                c_p: 0.0,
-                c_o: 0.0,
-            };
-            let min_tension = tensions(solver.model(), state)
-                .into_iter()
-                .fold(f64::INFINITY, f64::min);
-            Ok(PointMetrics {
-                rcond: zero,
-                rcond_scaled: zero,
-                singularity: Singularity {
-                    type_i: false,
-                    type_ii: true,
-                    leg: false,
-                },
-                min_tension,
-                stable: false,
-                min_compliance_eigenvalue: 0.0,
-                leg_switch: false,
-            })
-        }
+        Ok(c) => Ok(metrics_of(&c)),
+        Err(Error::Analysis(AnalysisError::Singular { .. })) => Ok(singular(solver, state)),
         Err(e) => Err(e),
+    }
+}
+
+/// [`point_metrics`] without the unit-scaled rconds of \[B_x B_u\], \[B_q B_u\] and B_u
+/// (a second factorization of the blocks): where the analysis succeeds, those three
+/// entries of `rcond_scaled` are NaN and the blocks are returned for
+/// [`complete_scaled`], which the sweep calls only for the points that represent cells
+/// (the per-sample statistics use the raw rconds). The completed measures equal
+/// [`point_metrics`]'s, bit for bit.
+///
+/// # Errors
+/// As [`point_metrics`].
+pub(super) fn point_metrics_deferred(
+    solver: &mut Solver,
+    state: &RobotState,
+    settings: &AnalysisSettings,
+) -> Result<(PointMetrics, Option<Box<BoundaryJacobians>>), Error> {
+    match solver.condition_with(state, &Wrench::default(), settings, false) {
+        Ok(c) => Ok((metrics_of(&c), Some(Box::new(solver.last_blocks().clone())))),
+        Err(Error::Analysis(AnalysisError::Singular { .. })) => Ok((singular(solver, state), None)),
+        Err(e) => Err(e),
+    }
+}
+
+/// Fills in the unit-scaled rconds that [`point_metrics_deferred`] left out, from the
+/// `blocks` it returned with `metrics`.
+pub(super) fn complete_scaled(
+    model: &Model,
+    metrics: &mut PointMetrics,
+    blocks: &BoundaryJacobians,
+) {
+    let [b_xu, b_qu, b_u] = scaled_block_rconds(model, blocks);
+    metrics.rcond_scaled.b_xu = b_xu;
+    metrics.rcond_scaled.b_qu = b_qu;
+    metrics.rcond_scaled.b_u = b_u;
+}
+
+/// The measures of an analysis.
+fn metrics_of(c: &Conditioning) -> PointMetrics {
+    PointMetrics {
+        rcond: c.rcond,
+        rcond_scaled: c.rcond_scaled,
+        singularity: c.singularity,
+        min_tension: c.min_tension,
+        stable: c.stability.stable,
+        min_compliance_eigenvalue: c.stability.eigenvalues[0],
+        leg_switch: false,
+    }
+}
+
+/// The measures where \[B_x B_u\] is exactly singular (see [`point_metrics`]).
+fn singular(solver: &Solver, state: &RobotState) -> PointMetrics {
+    let zero = Rconds {
+        b_xu: 0.0,
+        b_qu: 0.0,
+        b_u: 0.0,
+        j_p: 0.0,
+        j_o: 0.0,
+        c_p: 0.0,
+        c_o: 0.0,
+    };
+    let min_tension = tensions(solver.model(), state)
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    PointMetrics {
+        rcond: zero,
+        rcond_scaled: zero,
+        singularity: Singularity {
+            type_i: false,
+            type_ii: true,
+            leg: false,
+        },
+        min_tension,
+        stable: false,
+        min_compliance_eigenvalue: 0.0,
+        leg_switch: false,
     }
 }
 

@@ -170,15 +170,16 @@ impl PlaneJob<'_> {
             .filter(|s| !s.collision)
             .map(|s| s.metrics)
             .collect();
+        // Only the cells' points get the unit-scaled rconds (a second factorization each).
         let points = representatives(settings.step, origin, &rays)
-            .into_iter()
+            .into_par_iter()
             .map(|rep| WorkspacePoint {
                 cell: [rep.cell.1, rep.cell.0, k],
                 position: rep.sample.state.position,
                 tensions: tensions(model, &rep.sample.state),
                 state: rep.sample.state.clone(),
                 collision: rep.sample.collision,
-                metrics: rep.sample.metrics,
+                metrics: rep.sample.complete_metrics(model),
             })
             .collect();
         PlaneSweep {

@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use crate::boundary::BoundaryJacobians;
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
@@ -20,7 +21,7 @@ use crate::rod::{ShapeDetail, Wrench};
 use super::chord_jacobian::JacobianHistory;
 use super::collision::CollisionChecker;
 use super::ends::End;
-use super::metrics::{AnalysisSettings, PointMetrics, point_metrics};
+use super::metrics::{AnalysisSettings, PointMetrics, complete_scaled, point_metrics_deferred};
 use super::predict::{PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state};
 use super::settings::{CollisionPolicy, WorkspaceSettings};
 
@@ -58,11 +59,24 @@ pub(super) struct Sample {
     pub(super) state: RobotState,
     /// The disks collide.
     pub(super) collision: bool,
-    /// rcond, singularity flags, stability and minimum tension.
+    /// rcond, singularity flags, stability and minimum tension; the unit-scaled rconds of
+    /// the block matrices are NaN while `scaled_pending` holds the blocks they need.
     pub(super) metrics: PointMetrics,
+    /// The exact blocks at `state`, until the unit-scaled rconds are computed from them
+    /// ([`Sample::complete_metrics`]; only for the points that represent cells).
+    pub(super) scaled_pending: Option<Box<BoundaryJacobians>>,
 }
 
 impl Sample {
+    /// The point's measures with the unit-scaled rconds filled in.
+    pub(super) fn complete_metrics(&self, model: &Model) -> PointMetrics {
+        let mut metrics = self.metrics;
+        if let Some(blocks) = &self.scaled_pending {
+            complete_scaled(model, &mut metrics, blocks);
+        }
+        metrics
+    }
+
     /// Why this point ends its ray (or the path to the planes), if it does.
     pub(super) fn end(&self, collisions: CollisionPolicy) -> Option<End> {
         if !self.metrics.stable {
@@ -149,13 +163,13 @@ impl Worker {
         // step ends); where they cannot rule out a collision, the legs are integrated
         // once more to their disks.
         self.solver.record_shape_detail(Some(ShapeDetail::Knots));
-        let metrics = point_metrics(&mut self.solver, &state, &self.analysis);
+        let metrics = point_metrics_deferred(&mut self.solver, &state, &self.analysis);
         let clear = self
             .solver
             .shapes()
             .is_some_and(|shapes| self.collisions.clear_by_knots(model, &state, shapes));
         self.solver.record_shape_detail(None);
-        let metrics = match metrics {
+        let (metrics, scaled_pending) = match metrics {
             Ok(m) => m,
             Err(e) => return Err(self.end_of(e)),
         };
@@ -174,6 +188,7 @@ impl Worker {
             state,
             collision,
             metrics,
+            scaled_pending,
         })
     }
 
