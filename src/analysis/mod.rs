@@ -257,7 +257,9 @@ pub fn condition_blocks(
 /// rcond 0).
 pub(crate) fn scaled_block_rconds(model: &Model, blocks: &BoundaryJacobians) -> [f64; 3] {
     let n = 3 * model.n_leg_unknowns() + 6;
-    with_work(n, |work| scaled_rconds(model, blocks, work))
+    with_work(n, |work| {
+        scaled_rconds(model, blocks, &UnitScaling::new(model), work)
+    })
 }
 
 /// [`condition_blocks`] with (`scaled`) or without the unit-scaled rconds of
@@ -307,13 +309,17 @@ fn with_work<T>(n: usize, f: impl FnOnce(&mut Work) -> T) -> T {
 }
 
 /// The rconds of the unit-scaled \[B_x B_u\], \[B_q B_u\] and B_u ([`UnitScaling`]):
-/// rows divided and columns multiplied by their characteristic sizes, factored apart
-/// from the raw blocks (checked inputs, in `work`).
-fn scaled_rconds(model: &Model, blocks: &BoundaryJacobians, work: &mut Work) -> [f64; 3] {
+/// rows divided and columns multiplied by the characteristic sizes of `scaling`, factored
+/// apart from the raw blocks (checked inputs, in `work`).
+fn scaled_rconds(
+    model: &Model,
+    blocks: &BoundaryJacobians,
+    scaling: &UnitScaling,
+    work: &mut Work,
+) -> [f64; 3] {
     let (nq, nu) = (model.n_actuators(), model.n_leg_unknowns());
     let ny = 3 * nu;
     let n = ny + 6;
-    let scaling = UnitScaling::new(model);
     // Rows, then the columns of B_u, B_x and B_q, in one kept buffer.
     let mut buf = std::mem::take(&mut work.scales);
     buf.clear();
@@ -377,15 +383,16 @@ impl Factors {
         let ny = 3 * nu;
         let n = ny + 6;
         let raw = Triangles::new(blocks, nu, None, work);
+        let scaling = UnitScaling::new(model);
         let scaled_rconds = if scaled {
-            scaled_rconds(model, blocks, work)
+            scaled_rconds(model, blocks, &scaling, work)
         } else {
             [f64::NAN; 3]
         };
         Self {
             raw,
             scaled_rconds,
-            scaling: UnitScaling::new(model),
+            scaling,
             ny,
             n,
             nq,
