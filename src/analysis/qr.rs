@@ -29,6 +29,16 @@
 //! Lanczos kernels do): 9-DoF analysis 669 k → 655 k instructions, 6-DoF 555 k → 544 k;
 //! criterion 47.0 → 46.0 µs (9-DoF, interleaved), 6-DoF unchanged within noise; J_FK
 //! and C move by round-off (≤ 3e-16 of their largest entry, Λ ≤ 5e-14).
+//!
+//! The designs' sizes are fixed at compile time where they match (n_u = 8 or 10 leg
+//! unknowns for [`LegQr::new`], order and rows 30 or 36 for [`back_substitute_rows`],
+//! 36 × 9 for [`wide_triangle`]; any other size takes the general copy): the same
+//! operations with known loop bounds (bitwise the same results; a test compares the
+//! copies). Per analysis (callgrind, `analysis_cost`, 2026-11-27): [`LegQr::new`] 91.5 k →
+//! 78.2 k instructions (6-DoF) and 141.9 k → 119.9 k (9-DoF), [`back_substitute_rows`]
+//! 38.0 k → 23.5 k and 36.7 k → 28.3 k (with 1 / R_jj on the stack instead of a fresh
+//! `Vec`), [`wide_triangle`] 91.0 k → 84.3 k. [`LegQr::finish`] with fixed sizes gained
+//! nothing (0.2 k) and stays general.
 
 use std::ops::Range;
 
@@ -90,9 +100,27 @@ impl LegQr {
 
     #[inline(always)]
     fn new_inline(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
+        // The leg unknowns of the designs (one and two tendon pairs), fixed at compile
+        // time.
+        match nu {
+            8 => Self::new_sized::<8>(blocks, nu, scales),
+            10 => Self::new_sized::<10>(blocks, nu, scales),
+            _ => Self::new_sized::<0>(blocks, nu, scales),
+        }
+    }
+
+    /// [`LegQr::new`] for `NU` leg unknowns (0: any number).
+    #[inline(always)]
+    fn new_sized<const NU: usize>(
+        blocks: &[&DMatrix<f64>],
+        nu: usize,
+        scales: Option<Scales>,
+    ) -> Self {
+        let nu = if NU == 0 { nu } else { NU };
         let ny = blocks[0].ncols();
         let m = blocks[0].nrows();
         assert!(ny == 3 * nu && m == ny + PLATFORM, "LegQr: block sizes");
+        let (ny, m) = (3 * nu, 3 * nu + PLATFORM);
         let ncols: usize = blocks.iter().map(|b| b.ncols()).sum();
         // Load order: leg 1 (original rows 6..6 + nu), platform (0..6), legs 2 and 3.
         let segments = [
@@ -124,7 +152,7 @@ impl LegQr {
         let mut qr = Self { w, ny };
         for leg in 0..3 {
             for j in leg * nu..(leg + 1) * nu {
-                qr.reflect(j, (leg + 1) * nu + PLATFORM, j + 1..ncols, 0..0);
+                qr.reflect_at::<NU>(j, j, (leg + 1) * nu + PLATFORM, j + 1..ncols, 0..0);
             }
             if leg < 2 {
                 // Move the platform rows below the next leg's rows.
@@ -147,7 +175,7 @@ impl LegQr {
     fn finish_inline(&mut self, cols: Range<usize>, also: Range<usize>) {
         let m = self.w.nrows();
         for (k, c) in cols.clone().enumerate().take(m - self.ny) {
-            self.reflect_at(c, self.ny + k, m, c + 1..cols.end, also.clone());
+            self.reflect_at::<0>(c, self.ny + k, m, c + 1..cols.end, also.clone());
         }
     }
 
@@ -169,16 +197,11 @@ impl LegQr {
         }
     }
 
-    /// Householder reflector for column `col` with its diagonal at row `col`.
-    #[inline(always)]
-    fn reflect(&mut self, col: usize, end: usize, a: Range<usize>, b: Range<usize>) {
-        self.reflect_at(col, col, end, a, b);
-    }
-
     /// Householder reflector H = I − τ v vᵀ that zeroes column `col` over rows
-    /// `diag + 1..end` into row `diag`, applied to the column ranges `a` and `b`.
+    /// `diag + 1..end` into row `diag`, applied to the column ranges `a` and `b`; `NU`
+    /// (if not 0) the leg unknowns, fixing the row count at compile time.
     #[inline(always)]
-    fn reflect_at(
+    fn reflect_at<const NU: usize>(
         &mut self,
         col: usize,
         diag: usize,
@@ -186,7 +209,11 @@ impl LegQr {
         a: Range<usize>,
         b: Range<usize>,
     ) {
-        let m = self.w.nrows();
+        let m = if NU == 0 {
+            self.w.nrows()
+        } else {
+            3 * NU + PLATFORM
+        };
         let data = self.w.as_mut_slice();
         let mut v = [0.0; 2 * (6 + crate::design::MAX_TENDONS) + PLATFORM];
         let len = end - diag;
@@ -300,12 +327,34 @@ avx2_dispatch! {
 /// The body of [`back_substitute_rows`].
 #[inline(always)]
 fn back_substitute_rows_inline(qr: &mut LegQr, n: usize, b: Range<usize>, from: usize) -> bool {
+    // The orders and row counts of R_x and R_q of the designs, fixed at compile time.
+    match (n, qr.w.nrows()) {
+        (30, 30) => back_substitute_sized::<30, 30>(qr, n, b, from),
+        (36, 36) => back_substitute_sized::<36, 36>(qr, n, b, from),
+        _ => back_substitute_sized::<0, 0>(qr, n, b, from),
+    }
+}
+
+/// [`back_substitute_rows`] for a triangle of order `N` (= `n`) in a [`LegQr`] of `M`
+/// rows (0, 0: any).
+#[inline(always)]
+fn back_substitute_sized<const N: usize, const M: usize>(
+    qr: &mut LegQr,
+    n: usize,
+    b: Range<usize>,
+    from: usize,
+) -> bool {
+    let n = if N == 0 { n } else { N };
     if qr.triangle(n).is_singular() {
         return false;
     }
-    let m = qr.w.nrows();
+    let m = if M == 0 { qr.w.nrows() } else { M };
     let (left, right) = qr.w.as_mut_slice().split_at_mut(b.start * m);
-    let inv: Vec<f64> = (0..n).map(|j| 1.0 / left[j * m + j]).collect();
+    let mut inv = [0.0; 3 * (6 + crate::design::MAX_TENDONS) + PLATFORM];
+    let inv = &mut inv[..n];
+    for (j, d) in inv.iter_mut().enumerate() {
+        *d = 1.0 / left[j * m + j];
+    }
     let col = |j: usize| &left[j * m..j * m + j];
     for x in right[..b.len() * m].chunks_exact_mut(m) {
         // The bottom n mod 4 rows one by one, then blocks of four rows: their diagonal
@@ -376,8 +425,28 @@ pub(crate) struct WideBuffers {
 /// (callgrind, 9-DoF bench configuration); after (with the AVX2 copy): 52.8 k.
 #[inline(always)]
 fn wide_triangle_inline(qr: &LegQr, c: Range<usize>, buf: &mut WideBuffers) {
-    let (n, ny, nq) = (qr.w.nrows(), qr.ny, c.len());
-    debug_assert!(nq > PLATFORM && n == ny + PLATFORM);
+    // The 9-DoF design's sizes, fixed at compile time.
+    match (qr.w.nrows(), c.len()) {
+        (36, 9) => wide_triangle_sized::<36, 9>(qr, c, buf),
+        _ => wide_triangle_sized::<0, 0>(qr, c, buf),
+    }
+}
+
+/// [`wide_triangle`] for M of `N` rows and C of `NQ` columns (0, 0: any).
+#[inline(always)]
+fn wide_triangle_sized<const N: usize, const NQ: usize>(
+    qr: &LegQr,
+    c: Range<usize>,
+    buf: &mut WideBuffers,
+) {
+    let (n, nq) = if N == 0 {
+        (qr.w.nrows(), c.len())
+    } else {
+        assert!(qr.w.nrows() == N && c.len() == NQ, "wide_triangle: sizes");
+        (N, NQ)
+    };
+    let ny = n - PLATFORM;
+    debug_assert!(nq > PLATFORM && ny == qr.ny);
     let w = qr.w.as_slice();
     for (b, len) in [
         (&mut buf.rows, (1 + nq) * n),
@@ -563,6 +632,49 @@ mod tests {
         );
         assert!(ok.0 && ok.1);
         assert_eq!(bits(&fast.w), bits(&plain.w), "back_substitute_rows");
+    }
+
+    /// The kernels with the designs' sizes fixed at compile time (n_u = 8, 10) give
+    /// bitwise what the kernels of any size give.
+    #[test]
+    fn the_fixed_size_kernels_equal_the_general_ones_bitwise() {
+        let bits = |m: &DMatrix<f64>| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for nu in [8, 10] {
+            let b_u = structured(nu);
+            let n = b_u.nrows();
+            let (ny, nc) = (3 * nu, 9);
+            let c = DMatrix::from_fn(n, nc, |i, j| noise(i, j, 11));
+            let (mut fixed, mut general) = (
+                LegQr::new_inline(&[&b_u, &c], nu, None),
+                LegQr::new_sized::<0>(&[&b_u, &c], nu, None),
+            );
+            assert_eq!(bits(&fixed.w), bits(&general.w), "LegQr::new, nu = {nu}");
+            if nu == 10 {
+                let (mut wide_fixed, mut wide_general) =
+                    (WideBuffers::default(), WideBuffers::default());
+                wide_triangle_inline(&fixed, ny..ny + nc, &mut wide_fixed);
+                wide_triangle_sized::<0, 0>(&general, ny..ny + nc, &mut wide_general);
+                let wide_bits =
+                    |b: &WideBuffers| b.r.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    wide_bits(&wide_fixed),
+                    wide_bits(&wide_general),
+                    "wide_triangle"
+                );
+            }
+            fixed.finish(ny..n, n..ny + nc);
+            general.finish(ny..n, n..ny + nc);
+            let ok = (
+                back_substitute_rows_inline(&mut fixed, n, n..ny + nc, 0),
+                back_substitute_sized::<0, 0>(&mut general, n, n..ny + nc, 0),
+            );
+            assert!(ok.0 && ok.1);
+            assert_eq!(
+                bits(&fixed.w),
+                bits(&general.w),
+                "back substitution, nu = {nu}"
+            );
+        }
     }
 
     #[test]
