@@ -26,8 +26,8 @@
 //! configuration, 47.1 → 46.0 µs), but at 1 801 of the 178 353 points of the reference
 //! design's Δ = 3 mm sweep the run stopped at a Ritz value below σ_max (the residual test
 //! finds an eigenvalue, not the largest one): rcond 0.64 % off, scaled rconds up to 16 %;
-//! the LINPACK start's forward pass by blocks of four columns (as in
-//! `solve_upper_transpose`): 655 k → 651 k instructions, but no gain in time (45.8/45.8
+//! the LINPACK start's forward pass by blocks of four columns (as in the forward
+//! substitution): 655 k → 651 k instructions, but no gain in time (45.8/45.8
 //! against 46.7/48.3 µs, interleaved).
 //!
 //! The orders of the analysis' triangles (24, 30 and 36) are fixed at compile time
@@ -39,8 +39,26 @@
 //! 98.1 k → 85.0 k instructions (6-DoF), σ_min 200.0 k → 182.9 k and σ_max 98.1 k → 89.0 k
 //! (9-DoF). Fixing the leading dimension as well (30 or 36) was slower: 6-DoF analysis
 //! 2.1 k instructions more than the order alone.
+//!
+//! The kernels work on R copied into a zero-padded [`Square`] of order n rounded up to
+//! four (the vectors zero in the padding, which every operator keeps zero), so every
+//! pass is over whole blocks of four with no remainder rows: order 30 had two scalar
+//! rows per kernel, and the blocks' edges were found at run time. Per analysis
+//! (callgrind, `analysis_cost`, 2026-11-27, fourteenth session): σ_min 183.4 k → 172.9 k
+//! and σ_max 85.0 k → 73.1 k instructions (6-DoF), σ_min 182.9 k → 175.8 k and σ_max
+//! 89.0 k → 78.4 k (9-DoF); the results move by round-off only (the dense-SVD errors of
+//! `analysis_cost dump` change in their last digits). In isolation at order 30 the back
+//! substitution fell from 1 690 to 716 instructions a call, R x from 1 730 to 1 044 and
+//! Rᵀ x from 1 790 to 876; the forward substitution stays near 1 700-2 000 (the compiler
+//! splits its four running sums into two-lane halves; the loop order of `block_dots`
+//! that suits Rᵀ x suits it no better). Measured before: two columns per pass cost 0.4
+//! µs per Lanczos step at n = 30-36; four columns with the 4 × 4 diagonal blocks read as
+//! arrays took the analysis from 61.2 to 56.8 µs; inverting those blocks once per run
+//! gave nothing measurable (53.2 against 53.5 µs); forming R⁻¹ explicitly for σ_min cost
+//! more than the solves it replaces (62.8 → 73.5 µs).
 
 use super::qr::Triangle;
+use crate::rod::lanes::F64x4;
 
 /// Relative Ritz residual at which an eigenvalue counts as found.
 pub(crate) const TOLERANCE: f64 = 1e-5;
@@ -49,8 +67,13 @@ pub(crate) const TOLERANCE: f64 = 1e-5;
 #[derive(Debug, Clone)]
 pub(crate) struct Lanczos {
     work: Work,
-    /// 1 / R_jj of the current σ_min matrix (divisions hoisted out of the solves).
+    /// 1 / R_jj of the current σ_min matrix (divisions hoisted out of the solves; 1 in
+    /// the padding).
     inv_diag: Vec<f64>,
+    /// The current matrix as a [`Square`].
+    square: Vec<f64>,
+    /// The largest order taken.
+    capacity: usize,
     /// The Ritz vector of the last [`Lanczos::sigma_max`] (a right singular vector).
     ritz: Vec<f64>,
     ritz_len: usize,
@@ -82,27 +105,30 @@ pub(crate) enum Start<'a> {
 impl Lanczos {
     /// Work space for n × n matrices (and smaller).
     pub fn new(n: usize) -> Self {
+        let np = n.next_multiple_of(4);
         Self {
             work: Work {
                 // Grown as the steps need it (zeroing n² entries per analysis cost more
                 // than the few steps use).
-                basis: Vec::with_capacity(n * n),
-                w: vec![0.0; n],
-                tmp: vec![0.0; n],
+                basis: Vec::with_capacity(n * np),
+                w: vec![0.0; np],
+                tmp: vec![0.0; np],
                 alpha: vec![0.0; n],
                 beta: vec![0.0; n],
                 steps: 0,
                 theta: 0.0,
             },
-            inv_diag: vec![0.0; n],
-            ritz: vec![0.0; n],
+            inv_diag: vec![0.0; np],
+            square: vec![0.0; np * np],
+            capacity: n,
+            ritz: vec![0.0; np],
             ritz_len: 0,
         }
     }
 
     /// The largest order this work space takes.
     pub fn capacity(&self) -> usize {
-        self.work.w.len()
+        self.capacity
     }
 
     /// Lanczos steps of the last call.
@@ -134,7 +160,7 @@ impl Lanczos {
     fn sigma_max_inline(&mut self, r: Triangle, start: Start) -> f64 {
         match r.n {
             24 => self.sigma_max_of::<24>(r, start),
-            30 => self.sigma_max_of::<30>(r, start),
+            30 => self.sigma_max_of::<32>(r, start),
             36 => self.sigma_max_of::<36>(r, start),
             _ => self.sigma_max_of::<0>(r, start),
         }
@@ -145,51 +171,67 @@ impl Lanczos {
     fn sigma_min_inline(&mut self, r: Triangle) -> f64 {
         match r.n {
             24 => self.sigma_min_of::<24>(r),
-            30 => self.sigma_min_of::<30>(r),
+            30 => self.sigma_min_of::<32>(r),
             36 => self.sigma_min_of::<36>(r),
             _ => self.sigma_min_of::<0>(r),
         }
     }
 
-    /// [`Lanczos::sigma_max`] for matrices of order `N` (0: any order).
+    /// [`Lanczos::sigma_max`] on R padded to order `NP` (0: n rounded up to four).
     #[inline(always)]
-    fn sigma_max_of<const N: usize>(&mut self, r: Triangle, start: Start) -> f64 {
-        let n = order::<N>(r);
-        self.work.grow(n);
-        let first = &mut self.work.basis[..n];
+    fn sigma_max_of<const NP: usize>(&mut self, r: Triangle, start: Start) -> f64 {
+        let (n, np) = (r.n, padded_order::<NP>(r.n));
+        fill_square(r, np, 0.0, &mut self.square);
+        self.work.grow(np);
+        let first = &mut self.work.basis[..np];
+        first.fill(0.0);
         match start {
             Start::Given(v) if !v.is_empty() && v.len() <= n => {
-                first.fill(0.0);
                 first[..v.len()].copy_from_slice(v);
             }
-            _ => start_vector(first),
+            _ => start_vector(&mut first[..n]),
         }
-        let lambda = self.work.largest_eigenvalue::<N>(n, Operator::Gram(r));
-        self.ritz_len = self.work.ritz_vector::<N>(n, &mut self.ritz);
+        let square = Square {
+            data: &self.square[..np * np],
+            np,
+        };
+        let lambda = self
+            .work
+            .largest_eigenvalue::<NP>(n, np, Operator::Gram(square));
+        self.ritz_len = match self.work.ritz_vector::<NP>(np, &mut self.ritz) {
+            0 => 0,
+            _ => n,
+        };
         lambda.max(0.0).sqrt()
     }
 
-    /// [`Lanczos::sigma_min`] for matrices of order `N` (0: any order).
+    /// [`Lanczos::sigma_min`] on R padded to order `NP` (0: n rounded up to four).
     #[inline(always)]
-    fn sigma_min_of<const N: usize>(&mut self, r: Triangle) -> f64 {
-        let n = order::<N>(r);
+    fn sigma_min_of<const NP: usize>(&mut self, r: Triangle) -> f64 {
+        let (n, np) = (r.n, padded_order::<NP>(r.n));
         if r.is_singular() {
             return 0.0;
         }
-        for (j, d) in self.inv_diag[..n].iter_mut().enumerate() {
-            *d = 1.0 / r.column(j)[j];
+        fill_square(r, np, 1.0, &mut self.square);
+        for (j, d) in self.inv_diag[..np].iter_mut().enumerate() {
+            *d = if j < n { 1.0 / r.column(j)[j] } else { 1.0 };
         }
-        let inv = &self.inv_diag[..n];
+        let square = Square {
+            data: &self.square[..np * np],
+            np,
+        };
+        let inv = &self.inv_diag[..np];
         let w = &mut self.work;
-        w.grow(n);
-        estimator_start::<N>(r, inv, &mut w.tmp[..n], &mut w.basis[..n]);
-        let norm = dot(&w.basis[..n], &w.basis[..n]).sqrt();
+        w.grow(np);
+        estimator_start::<NP>(square, n, inv, &mut w.tmp[..np], &mut w.basis[..np]);
+        let norm = dot(&w.basis[..np], &w.basis[..np]).sqrt();
         if !(norm > 0.0 && norm.is_finite()) {
             start_vector(&mut w.basis[..n]);
+            w.basis[n..np].fill(0.0);
         } else {
-            w.basis[..n].iter_mut().for_each(|x| *x /= norm);
+            w.basis[..np].iter_mut().for_each(|x| *x /= norm);
         }
-        let lambda = w.largest_eigenvalue::<N>(n, Operator::InverseGram(r, inv));
+        let lambda = w.largest_eigenvalue::<NP>(n, np, Operator::InverseGram(square, inv));
         if lambda.is_finite() && lambda > 0.0 {
             1.0 / lambda.sqrt()
         } else {
@@ -214,23 +256,23 @@ avx2_dispatch! {
 #[derive(Clone, Copy)]
 enum Operator<'a> {
     /// RᵀR.
-    Gram(Triangle<'a>),
+    Gram(Square<'a>),
     /// (RᵀR)⁻¹ = R⁻¹R⁻ᵀ, with 1 / R_jj.
-    InverseGram(Triangle<'a>, &'a [f64]),
+    InverseGram(Square<'a>, &'a [f64]),
 }
 
 impl Operator<'_> {
-    /// y = A x (`tmp` is scratch of length n).
+    /// y = A x (`tmp` is scratch of the padded order).
     #[inline(always)]
-    fn apply<const N: usize>(self, x: &[f64], y: &mut [f64], tmp: &mut [f64]) {
+    fn apply<const NP: usize>(self, x: &[f64], y: &mut [f64], tmp: &mut [f64]) {
         match self {
             Self::Gram(r) => {
-                upper_mul_of::<N>(r, x, tmp);
-                upper_transpose_mul::<N>(r, tmp, y);
+                square_mul::<NP>(r, x, tmp);
+                square_mul_transpose::<NP>(r, tmp, y);
             }
             Self::InverseGram(r, inv) => {
-                solve_upper_transpose::<N>(r, inv, x, tmp);
-                solve_upper::<N>(r, inv, tmp, y);
+                square_solve_transpose::<NP>(r, inv, x, tmp);
+                square_solve::<NP>(r, inv, tmp, y);
             }
         }
     }
@@ -245,12 +287,13 @@ impl Work {
         }
     }
 
-    /// The largest eigenvalue of the symmetric positive semi-definite operator `op`, from
+    /// The largest eigenvalue of the symmetric positive semi-definite operator `op` of
+    /// order `n`, padded to `np` (vectors of length `np` whose padding stays zero), from
     /// the unit start vector in the first basis slot.
     #[inline(always)]
-    fn largest_eigenvalue<const N: usize>(&mut self, n: usize, op: Operator) -> f64 {
-        let n = if N == 0 { n } else { N };
-        assert!(self.w.len() >= n, "Lanczos: work space too small");
+    fn largest_eigenvalue<const NP: usize>(&mut self, n: usize, np: usize, op: Operator) -> f64 {
+        let np = if NP == 0 { np } else { NP };
+        assert!(self.w.len() >= np, "Lanczos: work space too small");
         self.steps = 0;
         self.theta = 0.0;
         if n == 0 {
@@ -259,11 +302,11 @@ impl Work {
         let mut theta = 0.0;
         for k in 0..n {
             self.steps = k + 1;
-            self.grow((k + 2).min(n) * n);
-            let (done, current) = self.basis.split_at_mut(k * n);
-            let q = &current[..n];
-            op.apply::<N>(q, &mut self.w[..n], &mut self.tmp[..n]);
-            let w = &mut self.w[..n];
+            self.grow((k + 2).min(n) * np);
+            let (done, current) = self.basis.split_at_mut(k * np);
+            let q = &current[..np];
+            op.apply::<NP>(q, &mut self.w[..np], &mut self.tmp[..np]);
+            let w = &mut self.w[..np];
             if !all_finite(w) {
                 return f64::INFINITY;
             }
@@ -271,7 +314,7 @@ impl Work {
             self.alpha[k] = a;
             axpy(-a, q, w);
             if k > 0 {
-                axpy(-self.beta[k - 1], &done[(k - 1) * n..k * n], w);
+                axpy(-self.beta[k - 1], &done[(k - 1) * np..k * np], w);
             }
             let b = dot(w, w).sqrt();
             let (t, s) = top_ritz(&self.alpha[..=k], &self.beta[..k], theta);
@@ -281,7 +324,7 @@ impl Work {
                 return theta;
             }
             self.beta[k] = b;
-            let next = &mut self.basis[(k + 1) * n..(k + 2) * n];
+            let next = &mut self.basis[(k + 1) * np..(k + 2) * np];
             for (x, y) in next.iter_mut().zip(w.iter()) {
                 *x = y / b;
             }
@@ -293,8 +336,8 @@ impl Work {
     /// q_i with y the tridiagonal's eigenvector by its three-term recurrence); returns
     /// its length (0 if it could not be formed).
     #[inline(always)]
-    fn ritz_vector<const N: usize>(&self, n: usize, out: &mut [f64]) -> usize {
-        let n = if N == 0 { n } else { N };
+    fn ritz_vector<const NP: usize>(&self, np: usize, out: &mut [f64]) -> usize {
+        let n = if NP == 0 { np } else { NP };
         let k = self.steps;
         if k == 0 {
             return 0;
@@ -321,16 +364,24 @@ impl Work {
     }
 }
 
-/// x = R⁻¹ y with Rᵀ y = e, e_j = ±1 chosen so that |y_j| grows (`tmp` holds y).
+/// x = R⁻¹ y with Rᵀ y = e, e_j = ±1 chosen so that |y_j| grows (`tmp` holds y; R of
+/// order `n`, padded: y and x are zero in the padding).
 #[inline(always)]
-fn estimator_start<const N: usize>(r: Triangle, inv: &[f64], tmp: &mut [f64], x: &mut [f64]) {
-    for j in 0..order::<N>(r) {
-        let col = r.column(j);
+fn estimator_start<const NP: usize>(
+    r: Square,
+    n: usize,
+    inv: &[f64],
+    tmp: &mut [f64],
+    x: &mut [f64],
+) {
+    let np = padded::<NP>(r);
+    for (j, col) in r.data[..np * n].chunks_exact(np).enumerate() {
         let s = dot(&col[..j], &tmp[..j]);
         let e = if s > 0.0 { -1.0 } else { 1.0 };
         tmp[j] = (e - s) * inv[j];
     }
-    solve_upper::<N>(r, inv, tmp, x);
+    tmp[n..np].fill(0.0);
+    square_solve::<NP>(r, inv, tmp, x);
 }
 
 /// A fixed pseudo-random unit vector (xorshift), so no symmetry of the matrix can make
@@ -455,189 +506,169 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
     }
 }
 
-// The triangular kernels take four columns per pass over the vector: one load and store
-// of y (or one load of x) per four columns, four independent products per element, and
-// a chain of dependent operations per block of four instead of per column or pair. With
-// two columns per pass the operators (a pair of kernels per Lanczos step) took 0.4 µs
-// per step at n = 30–36 (timers around the operator, 9-DoF bench configuration); four
-// columns with the 4 × 4 diagonal blocks read as arrays took the analysis from 61.2 to
-// 56.8 µs (examples/analysis_cost, interleaved runs). Inverting those 4 × 4 blocks once
-// per run (a product per block instead of four dependent substitutions) gave nothing
-// measurable (53.2 against 53.5 µs) and was dropped; so was forming R⁻¹ explicitly for
-// σ_min (products instead of solves: 62.8 → 73.5 µs, the n³/6 of the inverse costs more
-// than the solves it replaces).
-
-/// The order of `r`: `N` where the caller fixed it at compile time (then equal to
-/// `r.n`), else `r.n`.
-#[inline(always)]
-fn order<const N: usize>(r: Triangle) -> usize {
-    if N == 0 {
-        r.n
-    } else {
-        debug_assert_eq!(r.n, N, "Lanczos: order");
-        N
+/// y = R x (R upper triangular of any order; the wide triangle's Lanczos start).
+pub(crate) fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
+    y[..r.n].fill(0.0);
+    for (j, &xj) in x[..r.n].iter().enumerate() {
+        axpy(xj, r.column(j), &mut y[..=j]);
     }
 }
 
-/// The four columns j..j + 4 of R over rows 0..j (above their diagonal block).
-#[inline(always)]
-fn above<'a>(r: Triangle<'a>, j: usize) -> [&'a [f64]; 4] {
-    let (data, ld) = (r.data, r.ld);
-    let c = |k: usize| &data[(j + k) * ld..(j + k) * ld + j];
-    [c(0), c(1), c(2), c(3)]
+/// R zero-padded to order `np` (n rounded up to four): column-major, leading dimension
+/// `np`, zeros below the diagonal and in the padding (whose diagonal is 0 for RᵀR and 1
+/// for its inverse), so that every kernel below works on whole blocks of four.
+#[derive(Clone, Copy)]
+struct Square<'a> {
+    data: &'a [f64],
+    np: usize,
 }
 
-/// The diagonal block R\[j..j + 4, j..j + 4\], by columns: `d[b][a]` = R\[j + a, j + b\]
-/// (entries below the diagonal are whatever the storage holds, and unused).
+/// Four consecutive entries.
+type Quad = [f64; 4];
+
+/// Entries at..at + 4 of `s`.
 #[inline(always)]
-fn diagonal_block(r: Triangle, j: usize) -> [[f64; 4]; 4] {
-    let col = |b: usize| -> [f64; 4] {
-        let start = (j + b) * r.ld + j;
-        r.data[start..start + 4].try_into().expect("4 rows")
-    };
-    [col(0), col(1), col(2), col(3)]
+fn quad(s: &[f64], at: usize) -> Quad {
+    s[at..at + 4].try_into().expect("four entries")
+}
+
+/// The padded order of `s`: `NP` where the caller fixed it at compile time, else `s.np`.
+#[inline(always)]
+fn padded<const NP: usize>(s: Square) -> usize {
+    if NP == 0 { s.np } else { NP }
+}
+
+/// The padded order for R of order `n`: `NP` where fixed (then n rounded up to four).
+#[inline(always)]
+fn padded_order<const NP: usize>(n: usize) -> usize {
+    if NP == 0 {
+        n.next_multiple_of(4)
+    } else {
+        debug_assert_eq!(n.next_multiple_of(4), NP, "Lanczos: padded order");
+        NP
+    }
+}
+
+/// Writes R into `out` as a [`Square`] of order `np`, `pad` on the padding's diagonal.
+#[inline(always)]
+fn fill_square(r: Triangle, np: usize, pad: f64, out: &mut Vec<f64>) {
+    if out.len() < np * np {
+        out.resize(np * np, 0.0);
+    }
+    for (j, col) in out[..np * np].chunks_exact_mut(np).enumerate() {
+        if j < r.n {
+            col[..=j].copy_from_slice(&r.column(j)[..=j]);
+            col[j + 1..].fill(0.0);
+        } else {
+            col.fill(0.0);
+            col[j] = pad;
+        }
+    }
+}
+
+/// (a₀ + a₁) + (a₂ + a₃).
+#[inline(always)]
+fn hsum(a: Quad) -> f64 {
+    (a[0] + a[1]) + (a[2] + a[3])
+}
+
+/// Entries at..at + 4 of `s` as one vector.
+#[inline(always)]
+fn load(s: &[f64], at: usize) -> F64x4 {
+    F64x4(quad(s, at))
+}
+
+/// [`hsum`] of a vector.
+#[inline(always)]
+fn hsum4(a: F64x4) -> f64 {
+    hsum(a.0)
 }
 
 /// y = R x.
 #[inline(always)]
-pub(crate) fn upper_mul(r: Triangle, x: &[f64], y: &mut [f64]) {
-    upper_mul_of::<0>(r, x, y);
-}
-
-/// [`upper_mul`] for R of order `N` (0: any order).
-#[inline(always)]
-fn upper_mul_of<const N: usize>(r: Triangle, x: &[f64], y: &mut [f64]) {
-    let n = order::<N>(r);
-    y[..n].fill(0.0);
-    let mut j = 0;
-    while j + 4 <= n {
-        let c = above(r, j);
-        let xs = [x[j], x[j + 1], x[j + 2], x[j + 3]];
-        let cols = c[0].iter().zip(c[1]).zip(c[2].iter().zip(c[3]));
-        for (yi, ((a, b), (d, e))) in y[..j].iter_mut().zip(cols) {
-            *yi += (xs[0] * a + xs[1] * b) + (xs[2] * d + xs[3] * e);
+fn square_mul<const NP: usize>(s: Square, x: &[f64], y: &mut [f64]) {
+    let np = padded::<NP>(s);
+    let data = &s.data[..np * np];
+    for (c, out) in y[..np].chunks_exact_mut(4).enumerate() {
+        let mut acc = F64x4([0.0; 4]);
+        let cols = data[4 * c * np..].chunks_exact(np);
+        for (col, &xj) in cols.zip(&x[4 * c..np]) {
+            acc += load(&col[4 * c..], 0) * F64x4([xj; 4]);
         }
-        let d = diagonal_block(r, j);
-        for a in 0..4 {
-            let mut s = 0.0;
-            for b in a..4 {
-                s += xs[b] * d[b][a];
-            }
-            y[j + a] = s;
-        }
-        j += 4;
-    }
-    for j in j..n {
-        axpy(x[j], r.column(j), &mut y[..=j]);
+        out.copy_from_slice(&acc.0);
     }
 }
 
-/// (c\[k\] · x for k < 4), one pass over x with four partial sums each.
+/// Σ_c R\[4c..4c + 4, j\] ⊙ v\[4c..4c + 4\] over the blocks c of `v`, for the four columns j
+/// of `block` (partial sums per lane).
 #[inline(always)]
-fn dot4(c: [&[f64]; 4], x: &[f64]) -> [f64; 4] {
-    let mut acc = [[0.0; 4]; 4];
-    let whole = x.len() - x.len() % 4;
-    let (xs, tail) = x.split_at(whole);
-    let len = x.len();
-    let (c0, t0) = c[0][..len].split_at(whole);
-    let (c1, t1) = c[1][..len].split_at(whole);
-    let (c2, t2) = c[2][..len].split_at(whole);
-    let (c3, t3) = c[3][..len].split_at(whole);
-    let rows = c0.chunks_exact(4).zip(c1.chunks_exact(4));
-    let rows = rows.zip(c2.chunks_exact(4).zip(c3.chunks_exact(4)));
-    for (xv, ((a, b), (d, e))) in xs.chunks_exact(4).zip(rows) {
-        for l in 0..4 {
-            acc[0][l] += a[l] * xv[l];
-            acc[1][l] += b[l] * xv[l];
-            acc[2][l] += d[l] * xv[l];
-            acc[3][l] += e[l] * xv[l];
+fn block_dots(block: &[f64], np: usize, v: &[f64]) -> [F64x4; 4] {
+    let mut acc = [F64x4([0.0; 4]); 4];
+    for (acc, col) in acc.iter_mut().zip(block.chunks_exact(np)) {
+        for (cv, vv) in col[..v.len()].chunks_exact(4).zip(v.chunks_exact(4)) {
+            *acc += load(cv, 0) * load(vv, 0);
         }
     }
-    let sum = |a: [f64; 4]| (a[0] + a[1]) + (a[2] + a[3]);
-    let mut out = [sum(acc[0]), sum(acc[1]), sum(acc[2]), sum(acc[3])];
-    for (k, t) in [t0, t1, t2, t3].into_iter().enumerate() {
-        for (p, q) in t.iter().zip(tail) {
-            out[k] += p * q;
-        }
-    }
-    out
+    acc
 }
 
 /// y = Rᵀ x.
 #[inline(always)]
-fn upper_transpose_mul<const N: usize>(r: Triangle, x: &[f64], y: &mut [f64]) {
-    let n = order::<N>(r);
-    let mut j = 0;
-    while j + 4 <= n {
-        let mut s = dot4(above(r, j), &x[..j]);
-        let d = diagonal_block(r, j);
-        for b in 0..4 {
-            for a in 0..=b {
-                s[b] += d[b][a] * x[j + a];
-            }
+fn square_mul_transpose<const NP: usize>(s: Square, x: &[f64], y: &mut [f64]) {
+    let np = padded::<NP>(s);
+    for (b, (out, block)) in y[..np]
+        .chunks_exact_mut(4)
+        .zip(s.data[..np * np].chunks_exact(4 * np))
+        .enumerate()
+    {
+        let acc = block_dots(block, np, &x[..4 * b + 4]);
+        for k in 0..4 {
+            out[k] = hsum4(acc[k]);
         }
-        y[j..j + 4].copy_from_slice(&s);
-        j += 4;
-    }
-    for j in j..n {
-        y[j] = dot(r.column(j), &x[..=j]);
     }
 }
 
-/// Solves Rᵀ y = x (forward substitution); `inv` holds 1 / R_jj.
+/// Solves Rᵀ y = x (forward substitution); `inv` holds 1 / R_jj (1 in the padding).
 #[inline(always)]
-fn solve_upper_transpose<const N: usize>(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
-    let n = order::<N>(r);
-    let mut j = 0;
-    while j + 4 <= n {
-        let s = dot4(above(r, j), &y[..j]);
-        let d = diagonal_block(r, j);
+fn square_solve_transpose<const NP: usize>(s: Square, inv: &[f64], x: &[f64], y: &mut [f64]) {
+    let np = padded::<NP>(s);
+    for (b, block) in s.data[..np * np].chunks_exact(4 * np).enumerate() {
+        let acc = block_dots(block, np, &y[..4 * b]);
+        let d: [Quad; 4] = std::array::from_fn(|k| quad(block, k * np + 4 * b));
         let mut ys = [0.0; 4];
-        for b in 0..4 {
-            let mut t = x[j + b] - s[b];
-            for a in 0..b {
-                t -= d[b][a] * ys[a];
+        for k in 0..4 {
+            let mut t = x[4 * b + k] - hsum4(acc[k]);
+            for a in 0..k {
+                t -= d[k][a] * ys[a];
             }
-            ys[b] = t * inv[j + b];
+            ys[k] = t * inv[4 * b + k];
         }
-        y[j..j + 4].copy_from_slice(&ys);
-        j += 4;
-    }
-    for j in j..n {
-        let col = r.column(j);
-        y[j] = (x[j] - dot(&col[..j], &y[..j])) * inv[j];
+        y[4 * b..4 * b + 4].copy_from_slice(&ys);
     }
 }
 
-/// Solves R y = x (back substitution); `inv` holds 1 / R_jj.
+/// Solves R y = x (back substitution); `inv` holds 1 / R_jj (1 in the padding).
 #[inline(always)]
-fn solve_upper<const N: usize>(r: Triangle, inv: &[f64], x: &[f64], y: &mut [f64]) {
-    let n = order::<N>(r);
-    y[..n].copy_from_slice(&x[..n]);
-    // The bottom n mod 4 rows one by one, then blocks of four.
-    let mut j = n;
-    while j % 4 != 0 {
-        j -= 1;
-        let yj = y[j] * inv[j];
-        y[j] = yj;
-        axpy(-yj, &r.column(j)[..j], &mut y[..j]);
-    }
-    while j >= 4 {
-        j -= 4;
+fn square_solve<const NP: usize>(s: Square, inv: &[f64], x: &[f64], y: &mut [f64]) {
+    let np = padded::<NP>(s);
+    y[..np].copy_from_slice(&x[..np]);
+    for (b, block) in s.data[..np * np].chunks_exact(4 * np).enumerate().rev() {
+        let d: [Quad; 4] = std::array::from_fn(|k| quad(block, k * np + 4 * b));
         let mut ys = [0.0; 4];
-        let d = diagonal_block(r, j);
-        for b in (0..4).rev() {
-            let mut t = y[j + b];
-            for a in b + 1..4 {
-                t -= d[a][b] * ys[a];
+        for k in (0..4).rev() {
+            let mut t = y[4 * b + k];
+            for a in k + 1..4 {
+                t -= d[a][k] * ys[a];
             }
-            ys[b] = t * inv[j + b];
+            ys[k] = t * inv[4 * b + k];
         }
-        y[j..j + 4].copy_from_slice(&ys);
-        let c = above(r, j);
-        let cols = c[0].iter().zip(c[1]).zip(c[2].iter().zip(c[3]));
-        for (yi, ((a, b), (d, e))) in y[..j].iter_mut().zip(cols) {
-            *yi -= (ys[0] * a + ys[1] * b) + (ys[2] * d + ys[3] * e);
+        y[4 * b..4 * b + 4].copy_from_slice(&ys);
+        let yb: [F64x4; 4] = std::array::from_fn(|k| F64x4([ys[k]; 4]));
+        for (c, yc) in y[..4 * b].chunks_exact_mut(4).enumerate() {
+            let p: [F64x4; 4] = std::array::from_fn(|k| load(block, k * np + 4 * c));
+            let t = (p[0] * yb[0] + p[1] * yb[1]) + (p[2] * yb[2] + p[3] * yb[3]);
+            let out = load(yc, 0) - t;
+            yc.copy_from_slice(&out.0);
         }
     }
 }
@@ -758,32 +789,49 @@ mod tests {
     }
 
     #[test]
-    fn triangular_kernels_match_dense_products_and_solves() {
-        for n in [1, 2, 3, 7, 8] {
+    fn the_padded_kernels_match_dense_products_and_solves() {
+        for n in [1, 2, 3, 4, 7, 8, 30] {
             let r = DMatrix::from_fn(n, n, |i, j| {
                 if i == j {
                     2.0 + i as f64
                 } else if i < j {
                     ((i * 7 + j * 3) as f64).sin()
                 } else {
-                    0.0
+                    // Below the diagonal the storage holds anything; it is not read.
+                    f64::NAN
                 }
             });
-            let x: Vec<f64> = (0..n).map(|i| (i as f64 + 0.5).sin()).collect();
-            let xv = nalgebra::DVector::from_column_slice(&x);
-            let mut y = vec![0.0; n];
+            let np = n.next_multiple_of(4);
+            let dense = r.upper_triangle();
+            let mut x: Vec<f64> = (0..np).map(|i| (i as f64 + 0.5).sin()).collect();
+            x[n..].fill(0.0);
+            let xv = nalgebra::DVector::from_column_slice(&x[..n]);
+            let (mut y, mut store) = (vec![1.0; np], Vec::new());
+            let check = |y: &[f64], want: nalgebra::DVector<f64>| {
+                let got = nalgebra::DVector::from_column_slice(&y[..n]);
+                assert!(
+                    (got - &want).norm() < 1e-12 * (1.0 + want.norm()),
+                    "n = {n}"
+                );
+                assert!(y[n..].iter().all(|&v| v == 0.0), "n = {n}: padding");
+            };
+            fill_square(tri(&r), np, 0.0, &mut store);
+            let sq = Square { data: &store, np };
             upper_mul(tri(&r), &x, &mut y);
-            assert!((nalgebra::DVector::from_column_slice(&y) - &r * &xv).norm() < 1e-9 * r.norm());
-            upper_transpose_mul::<0>(tri(&r), &x, &mut y);
-            assert!(
-                (nalgebra::DVector::from_column_slice(&y) - r.transpose() * &xv).norm()
-                    < 1e-9 * r.norm()
-            );
-            let inv: Vec<f64> = (0..n).map(|j| 1.0 / r[(j, j)]).collect();
-            solve_upper::<0>(tri(&r), &inv, &x, &mut y);
-            assert!((&r * nalgebra::DVector::from_column_slice(&y) - &xv).norm() < 1e-9);
-            solve_upper_transpose::<0>(tri(&r), &inv, &x, &mut y);
-            assert!((r.transpose() * nalgebra::DVector::from_column_slice(&y) - &xv).norm() < 1e-9);
+            check(&y[..n], &dense * &xv);
+            square_mul::<0>(sq, &x, &mut y);
+            check(&y, &dense * &xv);
+            square_mul_transpose::<0>(sq, &x, &mut y);
+            check(&y, dense.transpose() * &xv);
+            fill_square(tri(&r), np, 1.0, &mut store);
+            let sq = Square { data: &store, np };
+            let inv: Vec<f64> = (0..np)
+                .map(|j| if j < n { 1.0 / r[(j, j)] } else { 1.0 })
+                .collect();
+            square_solve::<0>(sq, &inv, &x, &mut y);
+            check(&y, dense.solve_upper_triangular(&xv).unwrap());
+            square_solve_transpose::<0>(sq, &inv, &x, &mut y);
+            check(&y, dense.transpose().solve_lower_triangular(&xv).unwrap());
         }
     }
 
