@@ -90,8 +90,9 @@ pub struct Leg {
     /// The tendons, in the order used for tensions and displacements.
     pub tendons: Vec<Tendon>,
     /// Optional: fixed integration steps over the whole length (default
-    /// [`DEFAULT_INTEGRATION_STEPS`]). Steps are spread over the intervals between disks,
-    /// at least one per interval.
+    /// [`DEFAULT_INTEGRATION_STEPS`]). Steps are spread over the intervals between the
+    /// points where tendons end, in proportion to their lengths and at least one per
+    /// interval; disks inside a step get their frames from partial steps.
     #[serde(default = "default_integration_steps")]
     pub integration_steps: usize,
     /// Optional: the integration method (default [`Integrator::Rk5`]).

@@ -1,8 +1,9 @@
-//! The default discretization (13 fixed steps of Butcher's fifth-order method per leg)
-//! against a converged fine one (16× the steps): on every bundled parallel design, at home and at the test
-//! configurations of the benches, the platform pose must be within 1 µm (position, and
-//! rotation times the leg length). Issue 17 allows fewer steps only where this holds;
-//! BENCHMARKS.md ("Fewer integration steps") has the measurements over random draws.
+//! The default discretization (`DEFAULT_INTEGRATION_STEPS` = 10 fixed steps of Butcher's
+//! fifth-order method per leg) against a converged fine one (16× the steps): on every
+//! bundled parallel design, at home and at the test configurations of the benches, the
+//! platform pose must be within 1 µm (position, and rotation times the leg length).
+//! Issue 17 allows fewer steps only where this holds; BENCHMARKS.md ("Fewer integration
+//! steps", "A fifth-order integrator") has the measurements.
 
 mod common;
 
