@@ -333,21 +333,21 @@ impl Work {
     }
 
     /// Writes the Ritz vector of the last run's largest Ritz value θ into `out` (Σ y_i
-    /// q_i with y the tridiagonal's eigenvector by its three-term recurrence); returns
-    /// its length (0 if it could not be formed).
+    /// q_i with y the tridiagonal's eigenvector by its three-term recurrence), padded
+    /// to `np` like the basis; returns its length `np` (0 if it could not be formed).
     #[inline(always)]
     fn ritz_vector<const NP: usize>(&self, np: usize, out: &mut [f64]) -> usize {
-        let n = if NP == 0 { np } else { NP };
+        let np = if NP == 0 { np } else { NP };
         let k = self.steps;
         if k == 0 {
             return 0;
         }
         let theta = self.theta;
-        let ritz = &mut out[..n];
+        let ritz = &mut out[..np];
         ritz.fill(0.0);
         let (mut y_prev, mut y) = (0.0, 1.0);
         for i in 0..k {
-            axpy(y, &self.basis[i * n..(i + 1) * n], ritz);
+            axpy(y, &self.basis[i * np..(i + 1) * np], ritz);
             if i + 1 < k {
                 let b_prev = if i > 0 { self.beta[i - 1] } else { 0.0 };
                 let next = ((theta - self.alpha[i]) * y - b_prev * y_prev) / self.beta[i];
@@ -357,7 +357,7 @@ impl Work {
         let norm = dot(ritz, ritz).sqrt();
         if norm > 0.0 && norm.is_finite() {
             ritz.iter_mut().for_each(|x| *x /= norm);
-            n
+            np
         } else {
             0
         }
