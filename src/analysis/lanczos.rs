@@ -49,9 +49,13 @@
 //! 89.0 k → 78.4 k (9-DoF); the results move by round-off only (the dense-SVD errors of
 //! `analysis_cost dump` change in their last digits). In isolation at order 30 the back
 //! substitution fell from 1 690 to 716 instructions a call, R x from 1 730 to 1 044 and
-//! Rᵀ x from 1 790 to 876; the forward substitution stays near 1 700-2 000 (the compiler
-//! splits its four running sums into two-lane halves; the loop order of `block_dots`
-//! that suits Rᵀ x suits it no better). Measured before: two columns per pass cost 0.4
+//! Rᵀ x from 1 790 to 876. The forward substitution first stayed near 1 700-2 000 (over
+//! the rows above each block alone the compiler split its four running sums into
+//! two-lane halves; the other loop order of `block_dots` made the whole analysis 15 %
+//! dearer); with y zeroed first and each block's dots run over its own rows too (exact
+//! zeros added, so the same results bit for bit) it is the loop of Rᵀ x: σ_min 172.9 k →
+//! 141.2 k instructions per 6-DoF analysis, 175.8 k → 147.4 k per 9-DoF one. Measured
+//! before: two columns per pass cost 0.4
 //! µs per Lanczos step at n = 30-36; four columns with the 4 × 4 diagonal blocks read as
 //! arrays took the analysis from 61.2 to 56.8 µs; inverting those blocks once per run
 //! gave nothing measurable (53.2 against 53.5 µs); forming R⁻¹ explicitly for σ_min cost
@@ -632,8 +636,12 @@ fn square_mul_transpose<const NP: usize>(s: Square, x: &[f64], y: &mut [f64]) {
 #[inline(always)]
 fn square_solve_transpose<const NP: usize>(s: Square, inv: &[f64], x: &[f64], y: &mut [f64]) {
     let np = padded::<NP>(s);
+    // Zeros where y is not solved yet: each block's dots then run over its own rows too
+    // (adding exact zeros), the same loop as in Rᵀ x, which the compiler vectorizes
+    // whole; over the rows above alone it split the sums into two-lane halves.
+    y[..np].fill(0.0);
     for (b, block) in s.data[..np * np].chunks_exact(4 * np).enumerate() {
-        let acc = block_dots(block, np, &y[..4 * b]);
+        let acc = block_dots(block, np, &y[..4 * b + 4]);
         let d: [Quad; 4] = std::array::from_fn(|k| quad(block, k * np + 4 * b));
         let mut ys = [0.0; 4];
         for k in 0..4 {
