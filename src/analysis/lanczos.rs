@@ -55,9 +55,8 @@
 //! dearer); with y zeroed first and each block's dots run over its own rows too (exact
 //! zeros added, so the same results bit for bit) it is the loop of Rᵀ x: σ_min 172.9 k →
 //! 141.2 k instructions per 6-DoF analysis, 175.8 k → 147.4 k per 9-DoF one. Measured
-//! before: two columns per pass cost 0.4
-//! µs per Lanczos step at n = 30-36; four columns with the 4 × 4 diagonal blocks read as
-//! arrays took the analysis from 61.2 to 56.8 µs; inverting those blocks once per run
+//! before: two columns per pass cost 0.4 µs per Lanczos step at n = 30-36; four columns
+//! with the 4 × 4 diagonal blocks read as arrays took the analysis from 61.2 to 56.8 µs; inverting those blocks once per run
 //! gave nothing measurable (53.2 against 53.5 µs); forming R⁻¹ explicitly for σ_min cost
 //! more than the solves it replaces (62.8 → 73.5 µs).
 
