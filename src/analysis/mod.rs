@@ -219,6 +219,7 @@ pub fn analyze_blocks(
     let lambda_c = -z.view((0, n + nq), (ny, 6));
     let (j_ik, lambda_ik) = inverse_jacobian(&mut f.raw, &j_fk, &lambda_fk);
     let (c, ellipsoids) = f.conditioning(model, y_u, settings, &j_fk, &compliance);
+    f.recycle();
     Ok(Analysis {
         j_fk,
         lambda_fk,
@@ -280,7 +281,9 @@ pub(crate) fn condition_blocks_with(
     let z = &f.raw.x.w;
     let j_fk = -z.view((ny, n), (6, nq));
     let compliance = -z.view((ny, n + nq), (6, 6));
-    Ok(f.conditioning(model, y_u, settings, &j_fk, &compliance).0)
+    let conditioning = f.conditioning(model, y_u, settings, &j_fk, &compliance).0;
+    f.recycle();
+    Ok(conditioning)
 }
 
 /// The raw and unit-scaled triangles of one configuration's blocks, the shared first
@@ -332,12 +335,23 @@ fn scaled_rconds(
     let (cols_x, cols_q) = cols.split_at(6);
     let cols = [cols_u, cols_x, cols_q];
     let scales = Scales { rows, cols: &cols };
-    let rconds = Triangles::new(blocks, nu, Some(scales), work).rconds;
+    let triangles = Triangles::new(blocks, nu, Some(scales), work);
+    let rconds = triangles.rconds;
+    triangles.recycle(work);
     work.scales = buf;
     rconds
 }
 
 impl Factors {
+    /// Hands the raw triangles' storage back to this thread's analysis buffers.
+    fn recycle(self) {
+        WORK.with_borrow_mut(|slot| {
+            if let Some(work) = slot {
+                self.raw.recycle(work);
+            }
+        });
+    }
+
     /// [`Factors::factor`], then [`Factors::solve`] for rows `from..n` of Z.
     ///
     /// # Errors
@@ -350,8 +364,13 @@ impl Factors {
         scaled: bool,
     ) -> Result<Self, AnalysisError> {
         let mut f = Self::factor(model, blocks, y_u, scaled)?;
-        f.solve(from)?;
-        Ok(f)
+        match f.solve(from) {
+            Ok(()) => Ok(f),
+            Err(e) => {
+                f.recycle();
+                Err(e)
+            }
+        }
     }
 
     /// The raw triangles and their rconds, and (if `scaled`) the unit-scaled rconds
@@ -557,6 +576,9 @@ struct Work {
     v_u: Vec<f64>,
     /// The unit scaling's row and column factors.
     scales: Vec<f64>,
+    /// Storage of earlier [`LegQr`]s, reused by the next ones (none allocated in a
+    /// thread's analyses after its first).
+    storage: Vec<Vec<f64>>,
 }
 
 /// The triangular factors of \[B_u B_x\], B_u and (if square) \[B_u B_q\] from one
@@ -579,11 +601,20 @@ impl Work {
             start: vec![0.0; n],
             v_u: Vec::with_capacity(n),
             scales: Vec::new(),
+            storage: Vec::new(),
         }
     }
 }
 
 impl Triangles {
+    /// Hands the factors' storage back to `work` for the next analysis.
+    fn recycle(self, work: &mut Work) {
+        work.storage.push(self.x.into_storage());
+        if let Some(q) = self.q {
+            work.storage.push(q.into_storage());
+        }
+    }
+
     /// Factors `[B_u | B_x | B_q (| B_w without scales)]`, scaled if `scales` are given.
     fn new(b: &BoundaryJacobians, nu: usize, scales: Option<Scales>, work: &mut Work) -> Self {
         let Work {
@@ -591,14 +622,16 @@ impl Triangles {
             wide,
             start,
             v_u,
+            storage,
             ..
         } = work;
         let (ny, nq) = (b.b_u.ncols(), b.b_q.ncols());
         let n = ny + 6;
+        let reuse = storage.pop().unwrap_or_default();
         let legs = if scales.is_some() {
-            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q], nu, scales)
+            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q], nu, scales, reuse)
         } else {
-            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q, &b.b_w], nu, None)
+            LegQr::new(&[&b.b_u, &b.b_x, &b.b_q, &b.b_w], nu, None, reuse)
         };
         let ncols = legs.w.ncols();
         let (xc, qc) = (ny..n, n..n + nq);
@@ -616,7 +649,7 @@ impl Triangles {
             column_norm(&legs, qc.clone()),
         );
         let (q, rcond_q) = if nq == 6 {
-            let mut q = legs.clone();
+            let mut q = legs.copy_into(storage.pop().unwrap_or_default());
             q.swap_columns(xc.clone(), qc.clone());
             q.finish(xc.clone(), qc.clone());
             let max = sigma_max_extended(lz, q.triangle(n), sigma_u, norm_q, Start::Given(v_u));

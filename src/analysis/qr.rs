@@ -91,21 +91,50 @@ impl LegQr {
     /// reflectors to the other blocks (same rows). Entry (i, j) of block b is loaded as
     /// `row_scale[i] · value · col_scales[b][j]` when scales are given.
     ///
+    /// The entries are written into `storage` (cleared first; no allocation where its
+    /// capacity suffices: the analysis hands back the storage of an earlier factorization,
+    /// [`LegQr::into_storage`]).
+    ///
     /// # Panics
     /// If the sizes do not agree (a programmer error; callers check the model).
     #[track_caller]
-    pub fn new(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
-        leg_qr(blocks, nu, scales)
+    pub fn new(
+        blocks: &[&DMatrix<f64>],
+        nu: usize,
+        scales: Option<Scales>,
+        storage: Vec<f64>,
+    ) -> Self {
+        leg_qr(blocks, nu, scales, storage)
+    }
+
+    /// A copy of `self` in `storage` (cleared first).
+    pub fn copy_into(&self, mut storage: Vec<f64>) -> Self {
+        storage.clear();
+        storage.extend_from_slice(self.w.as_slice());
+        Self {
+            w: DMatrix::from_vec(self.w.nrows(), self.w.ncols(), storage),
+            ny: self.ny,
+        }
+    }
+
+    /// The entries' storage, for the next [`LegQr::new`] or [`LegQr::copy_into`].
+    pub fn into_storage(self) -> Vec<f64> {
+        self.w.data.into()
     }
 
     #[inline(always)]
-    fn new_inline(blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> Self {
+    fn new_inline(
+        blocks: &[&DMatrix<f64>],
+        nu: usize,
+        scales: Option<Scales>,
+        storage: Vec<f64>,
+    ) -> Self {
         // The leg unknowns of the designs (one and two tendon pairs), fixed at compile
         // time.
         match nu {
-            8 => Self::new_sized::<8>(blocks, nu, scales),
-            10 => Self::new_sized::<10>(blocks, nu, scales),
-            _ => Self::new_sized::<0>(blocks, nu, scales),
+            8 => Self::new_sized::<8>(blocks, nu, scales, storage),
+            10 => Self::new_sized::<10>(blocks, nu, scales, storage),
+            _ => Self::new_sized::<0>(blocks, nu, scales, storage),
         }
     }
 
@@ -115,6 +144,7 @@ impl LegQr {
         blocks: &[&DMatrix<f64>],
         nu: usize,
         scales: Option<Scales>,
+        storage: Vec<f64>,
     ) -> Self {
         let nu = if NU == 0 { nu } else { NU };
         let ny = blocks[0].ncols();
@@ -129,7 +159,9 @@ impl LegQr {
             (nu + PLATFORM..m, nu + PLATFORM),
         ];
         // Filled column by column (no zeroing first).
-        let mut data = Vec::with_capacity(m * ncols);
+        let mut data = storage;
+        data.clear();
+        data.reserve(m * ncols);
         for (b, block) in blocks.iter().enumerate() {
             assert_eq!(block.nrows(), m, "LegQr: block rows");
             for c in 0..block.ncols() {
@@ -254,7 +286,7 @@ impl LegQr {
 
 avx2_dispatch! {
     fn leg_qr = leg_qr_avx2 / LegQr::new_inline;
-        (blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>) -> LegQr
+        (blocks: &[&DMatrix<f64>], nu: usize, scales: Option<Scales>, storage: Vec<f64>) -> LegQr
 }
 
 avx2_dispatch! {
@@ -575,7 +607,7 @@ mod tests {
             let b_u = structured(nu);
             let n = b_u.nrows();
             let x = DMatrix::from_fn(n, 6, |i, j| noise(i, j, 2));
-            let mut qr = LegQr::new(&[&b_u, &x], nu, None);
+            let mut qr = LegQr::new(&[&b_u, &x], nu, None, Vec::new());
             qr.finish(3 * nu..3 * nu + 6, 0..0);
             let r = qr.triangle(n);
             // RᵀR = MᵀM for M = [B_u x] (Q orthogonal).
@@ -593,6 +625,23 @@ mod tests {
         }
     }
 
+    /// A factorization in the storage of an earlier one (longer, other values) and a copy
+    /// into such storage are bitwise what fresh storage gives.
+    #[test]
+    fn reused_storage_gives_the_fresh_factors() {
+        let nu = 8;
+        let b_u = structured(nu);
+        let c = DMatrix::from_fn(b_u.nrows(), 6, |i, j| noise(i, j, 3));
+        let bits = |m: &DMatrix<f64>| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let fresh = LegQr::new(&[&b_u, &c], nu, None, Vec::new());
+        let used = vec![f64::NAN; 3 * fresh.w.len()];
+        let reused = LegQr::new(&[&b_u, &c], nu, None, used);
+        assert_eq!(bits(&reused.w), bits(&fresh.w));
+        let copy = fresh.copy_into(reused.into_storage());
+        assert_eq!(bits(&copy.w), bits(&fresh.w));
+        assert_eq!((copy.w.shape(), copy.ny), (fresh.w.shape(), fresh.ny));
+    }
+
     /// The dispatched kernels (AVX2 where the CPU has it) give bitwise what their
     /// portable bodies give.
     #[test]
@@ -604,8 +653,8 @@ mod tests {
         let c = DMatrix::from_fn(n, nc, |i, j| noise(i, j, 7));
         let bits = |m: &DMatrix<f64>| m.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let (mut fast, mut plain) = (
-            LegQr::new(&[&b_u, &c], nu, None),
-            LegQr::new_inline(&[&b_u, &c], nu, None),
+            LegQr::new(&[&b_u, &c], nu, None, Vec::new()),
+            LegQr::new_inline(&[&b_u, &c], nu, None, Vec::new()),
         );
         assert_eq!(bits(&fast.w), bits(&plain.w), "LegQr::new");
         let (mut wide_fast, mut wide_plain) = (WideBuffers::default(), WideBuffers::default());
@@ -645,8 +694,8 @@ mod tests {
             let (ny, nc) = (3 * nu, 9);
             let c = DMatrix::from_fn(n, nc, |i, j| noise(i, j, 11));
             let (mut fixed, mut general) = (
-                LegQr::new_inline(&[&b_u, &c], nu, None),
-                LegQr::new_sized::<0>(&[&b_u, &c], nu, None),
+                LegQr::new_inline(&[&b_u, &c], nu, None, Vec::new()),
+                LegQr::new_sized::<0>(&[&b_u, &c], nu, None, Vec::new()),
             );
             assert_eq!(bits(&fixed.w), bits(&general.w), "LegQr::new, nu = {nu}");
             if nu == 10 {
@@ -684,7 +733,7 @@ mod tests {
         let b_u = structured(nu);
         let n = b_u.nrows();
         let c = DMatrix::from_fn(n, 9, |i, j| noise(i, j, 5));
-        let qr = LegQr::new(&[&b_u, &c], nu, None);
+        let qr = LegQr::new(&[&b_u, &c], nu, None, Vec::new());
         let ny = 3 * nu;
         // Garbage in the buffers must not matter (only the upper triangle is read).
         let mut buf = WideBuffers {
@@ -721,7 +770,7 @@ mod tests {
         let n = b_u.nrows();
         let x = DMatrix::from_fn(n, 6, |i, j| noise(i, j, 3));
         let rhs = DMatrix::from_fn(n, 2, |i, j| (i + j) as f64);
-        let mut qr = LegQr::new(&[&b_u, &x, &rhs], nu, None);
+        let mut qr = LegQr::new(&[&b_u, &x, &rhs], nu, None, Vec::new());
         qr.finish(n - 6..n, n..n + 2);
         assert!(back_substitute(&mut qr, n, n..n + 2));
         let z = qr.w.columns(n, 2).into_owned();
