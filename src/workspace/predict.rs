@@ -1,6 +1,17 @@
 //! The predictor of a path step: the start of the next IK solve extrapolated from the last
 //! solutions on a ray or on the path along z ([`predict`]), within one taut/slack regime of
 //! the tendons ([`same_regime`]).
+//!
+//! Tried and dropped (2026-11-27, fifteenth session): the cubic Hermite extrapolation from
+//! the last two solutions and their exact tangents ∂[q, ζ]/∂(position), J T = −B_x (one
+//! LU of the IK Jacobian each point already has). On the design search's grid (the
+//! reference, Δ = 12 mm, φ = 0.25, ε_b = 1e-10, one thread) its start was 10× nearer the
+//! solution than this extrapolation's (median ‖Δq‖_∞ 5.9e-6 against 9.1e-5 m from three
+//! solutions, 3.8e-5 against 3.9e-4 m from five; nearer at 97–100 % of the steps), but
+//! the runs took about as many residuals (24 617 → 24 042 in all, Jacobians 4 782 →
+//! 4 899, the same 2 201 cells; 1.78 s against 1.65 s, one run each): a run's chord
+//! steps with the extrapolated Jacobian contract by 0.01–0.03 each there, so a start ten
+//! times nearer saves about half an iteration, less than the tangents cost.
 
 use crate::boundary::convert_tendon_unknowns;
 use crate::kinetostatics::RobotState;
