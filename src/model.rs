@@ -6,6 +6,10 @@ use nalgebra::{Matrix3, Vector3};
 use crate::design::{ActuationLimits, MAX_TENDONS, Tdpcr};
 use crate::rod::{Frame, LegModel};
 
+/// Most actuators of a valid design: 3 (1 + pairs) with at most [`MAX_TENDONS`] tendons
+/// (MAX_TENDONS / 2 pairs) per leg ([`Model::n_actuators`]).
+pub const MAX_ACTUATORS: usize = 3 * (1 + MAX_TENDONS / 2);
+
 /// The parallel robot (three identical legs and a platform), SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {

@@ -1,5 +1,6 @@
-//! The hot paths do not allocate: leg integration (with and without sensitivities) and
-//! the Newton loop. A counting global allocator counts the allocations of the thread that
+//! The hot paths do not allocate: leg integration (with and without sensitivities), the
+//! Newton loop and a configuration's measures ([`Solver::condition`], after its first
+//! call on a thread). A counting global allocator counts the allocations of the thread that
 //! measures (the test harness's own thread may allocate meanwhile: under load it did, and
 //! the count of every thread then read 4 where the work allocated nothing).
 
@@ -10,12 +11,14 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use nalgebra::{DMatrix, DVector, Vector3};
-use tdpcr::design::MAX_TENDONS;
+use tdpcr::analysis::AnalysisSettings;
+use tdpcr::design::{MAX_TENDONS, Tdpcr};
 use tdpcr::error::SolveError;
+use tdpcr::kinetostatics::Solver;
 use tdpcr::newton::{self, NewtonScratch, NewtonSettings, NonlinearSystem};
 use tdpcr::rod::{
-    Frame, LegEnd, LegModel, LegScratch, LegSensitivities, LegShape, LegStart, integrate_leg,
-    integrate_leg_with_sensitivities,
+    Frame, LegEnd, LegModel, LegScratch, LegSensitivities, LegShape, LegStart, Wrench,
+    integrate_leg, integrate_leg_with_sensitivities,
 };
 
 struct Counting;
@@ -124,4 +127,27 @@ fn leg_integration_and_the_newton_loop_do_not_allocate() {
     });
     assert_eq!(n, 0, "the Newton loop allocated {n} times");
     assert!((x[0] - 2f64.sqrt()).abs() < 1e-10);
+}
+
+#[test]
+fn the_measures_of_a_configuration_do_not_allocate() {
+    for name in ["lilge2022.ron", "lilge2022_redundant.ron"] {
+        let design = Tdpcr::from_ron_file(common::design_path(name)).unwrap();
+        let mut solver = Solver::new(&design).unwrap();
+        let zero = Wrench::default();
+        let nq = solver.model().n_actuators();
+        let state = solver
+            .solve_fk(&vec![0.001; nq], &zero, None)
+            .unwrap()
+            .state;
+        let settings = AnalysisSettings::default();
+        // The first call sizes this thread's analysis buffers.
+        let first = solver.condition(&state, &zero, &settings).unwrap();
+        let mut again = None;
+        let n = allocations_during(|| {
+            again = Some(solver.condition(&state, &zero, &settings).unwrap());
+        });
+        assert_eq!(n, 0, "{name}: Solver::condition allocated {n} times");
+        assert_eq!(again, Some(first), "{name}: the same measures again");
+    }
 }

@@ -117,15 +117,27 @@ pub(crate) fn ratio(min: f64, max: f64) -> f64 {
     }
 }
 
+/// Columns of the matrices [`row_compression`] works on without allocating (a design's
+/// actuators, [`crate::model::MAX_ACTUATORS`]).
+const STACK_COLUMNS: usize = crate::model::MAX_ACTUATORS;
+
 /// L with a = L Qᵀ, L lower-triangular 3 × 3 and Q with orthonormal columns (modified
 /// Gram–Schmidt on the rows, repeated once).
 fn row_compression<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
     a: &Matrix<f64, R, C, S>,
 ) -> Matrix3<f64> {
     let k = a.ncols();
-    // Q's three rows, then the current row (one buffer: these ran as six allocations
-    // per call, four calls per analysis).
-    let mut buf = vec![0.0; 4 * k];
+    // Q's three rows, then the current row, in one buffer (these ran as six allocations
+    // per call, four calls per analysis): on the stack for up to STACK_COLUMNS columns
+    // (every design's J_FK), so an analysis allocates nothing.
+    let mut stack = [0.0; 4 * STACK_COLUMNS];
+    let mut heap = Vec::new();
+    let buf = if k <= STACK_COLUMNS {
+        &mut stack[..4 * k]
+    } else {
+        heap.resize(4 * k, 0.0);
+        &mut heap[..]
+    };
     let (q, r) = buf.split_at_mut(3 * k);
     let mut l = Matrix3::zeros();
     for i in 0..3 {

@@ -38,11 +38,11 @@ pub mod rcond;
 pub mod scaling;
 pub mod stability;
 
-use nalgebra::{DMatrix, Matrix3};
+use nalgebra::{DMatrix, Dim, Matrix, Matrix3, Matrix6, RawStorage, SMatrix};
 use serde::Serialize;
 
 use crate::boundary::BoundaryJacobians;
-use crate::model::Model;
+use crate::model::{MAX_ACTUATORS, Model};
 use crate::rod::tendon::tension;
 use lanczos::{Lanczos, Start};
 use qr::{LegQr, Scales, WideBuffers, back_substitute, back_substitute_rows};
@@ -279,8 +279,12 @@ pub(crate) fn condition_blocks_with(
     let f = Factors::new(model, blocks, y_u, ny, scaled)?;
     let (n, nq) = (f.n, f.nq);
     let z = &f.raw.x.w;
-    let j_fk = -z.view((ny, n), (6, nq));
-    let compliance = -z.view((ny, n + nq), (6, 6));
+    // On the stack (the values of `analyze_blocks`' matrices): no allocation.
+    let mut j_fk = PoseByActuators::zeros();
+    let mut j_fk = j_fk.columns_mut(0, nq);
+    j_fk.copy_from(&z.view((ny, n), (6, nq)));
+    j_fk.neg_mut();
+    let compliance = Matrix6::from_fn(|r, c| -z[(ny + r, n + nq + c)]);
     let conditioning = f.conditioning(model, y_u, settings, &j_fk, &compliance).0;
     f.recycle();
     Ok(conditioning)
@@ -440,15 +444,20 @@ impl Factors {
         }
     }
 
-    /// The rconds, flags, tension and stability from J_FK and C, and the ellipsoids.
-    fn conditioning(
+    /// The rconds, flags, tension and stability from J_FK (6 × n_q) and C (6 × 6), and the
+    /// ellipsoids.
+    fn conditioning<RJ: Dim, CJ: Dim, SJ, RC: Dim, CC: Dim, SC>(
         &self,
         model: &Model,
         y_u: &[f64],
         settings: &AnalysisSettings,
-        j_fk: &DMatrix<f64>,
-        compliance: &DMatrix<f64>,
-    ) -> (Conditioning, Ellipsoids) {
+        j_fk: &Matrix<f64, RJ, CJ, SJ>,
+        compliance: &Matrix<f64, RC, CC, SC>,
+    ) -> (Conditioning, Ellipsoids)
+    where
+        SJ: RawStorage<f64, RJ, CJ>,
+        SC: RawStorage<f64, RC, CC>,
+    {
         let (raw_blocks, scaled_rconds, scaling) =
             (self.raw.rconds, self.scaled_rconds, &self.scaling);
         let ellipsoids = Ellipsoids {
@@ -466,9 +475,13 @@ impl Factors {
             c_p: ellipsoids.c_p.rcond(),
             c_o: ellipsoids.c_o.rcond(),
         };
-        let scaled_j = DMatrix::from_fn(6, self.nq, |r, c| {
-            j_fk[(r, c)] * scaling.actuation(c) / scaling.pose(r)
-        });
+        let mut scaled_j = PoseByActuators::zeros();
+        let mut scaled_j = scaled_j.columns_mut(0, self.nq);
+        for c in 0..self.nq {
+            for r in 0..6 {
+                scaled_j[(r, c)] = j_fk[(r, c)] * scaling.actuation(c) / scaling.pose(r);
+            }
+        }
         let rcond_scaled = Rconds {
             b_xu: scaled_rconds[0],
             b_qu: scaled_rconds[1],
@@ -494,6 +507,9 @@ impl Factors {
         (c, ellipsoids)
     }
 }
+
+/// A 6 × n_q matrix (J_FK) on the stack: the first n_q ≤ [`MAX_ACTUATORS`] columns.
+type PoseByActuators = SMatrix<f64, 6, MAX_ACTUATORS>;
 
 /// Sizes and finiteness of the inputs.
 fn check_inputs(
@@ -562,7 +578,12 @@ thread_local! {
     /// The [`Work`] of the analyses on this thread, kept between calls and replaced by a
     /// larger one when a design needs it. Every buffer is written before it is read, so
     /// a reused one gives bitwise what a fresh one gives. (A fresh one per call cost
-    /// about 14 allocations and 16 k instructions of zero fill per 9-DoF analysis.)
+    /// about 14 allocations and 16 k instructions of zero fill per 9-DoF analysis.) With
+    /// the factorizations' storage kept here too and J_FK, C and the scaled J_FK of the
+    /// measures on the stack, [`condition_blocks`] (and so [`Solver::condition`](
+    /// crate::kinetostatics::Solver::condition)) allocates nothing after a thread's first
+    /// call (tests/no_allocation.rs; 11 small ones a 6-DoF call before, 2026-11-27); only
+    /// [`analyze_blocks`]' own matrices (J_FK, Λ, J_IK, C) are allocated, as its output.
     static WORK: std::cell::RefCell<Option<Work>> = const { std::cell::RefCell::new(None) };
 }
 

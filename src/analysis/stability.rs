@@ -17,7 +17,7 @@
 //!   D = diag(√(L³/EI) I₃, √(L/EI) I₃) (a congruence: the signs are those of sym(C),
 //!   Sylvester's law of inertia), and of sym(C_p) \[m/N\] and sym(C_o) \[rad/(N·m)\].
 
-use nalgebra::{DMatrix, Matrix3, Matrix6, Vector3};
+use nalgebra::{Dim, Matrix, Matrix3, Matrix6, RawStorage, Vector3};
 use serde::Serialize;
 
 use crate::boundary::BoundaryJacobians;
@@ -44,7 +44,10 @@ pub struct Stability {
 
 impl Stability {
     /// The stability read from a compliance C (6 × 6, raw SI, columns f_ext then l_ext).
-    pub fn of_compliance(model: &Model, compliance: &DMatrix<f64>) -> Self {
+    pub fn of_compliance<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+        model: &Model,
+        compliance: &Matrix<f64, R, C, S>,
+    ) -> Self {
         let c = Matrix6::from_fn(|r, k| compliance[(r, k)]);
         let scaled = scale_congruent(model, &c);
         let sym = symmetric_part(&scaled);
@@ -54,7 +57,7 @@ impl Stability {
         let norm = scaled.norm();
         Self {
             stable: eigenvalues.iter().all(|&l| l > 0.0),
-            eigenvalues: eigenvalues.try_into().expect("6 eigenvalues"),
+            eigenvalues,
             eigenvalues_c_p: eigenvalues3(&c_p),
             eigenvalues_c_o: eigenvalues3(&c_o),
             asymmetry: if norm > 0.0 {
@@ -86,11 +89,12 @@ fn symmetric_part3(m: &Matrix3<f64>) -> Matrix3<f64> {
 
 fn eigenvalues3(m: &Matrix3<f64>) -> [f64; 3] {
     let e: Vector3<f64> = m.symmetric_eigenvalues();
-    sorted(e.as_slice()).try_into().expect("3 eigenvalues")
+    sorted(e.as_slice())
 }
 
-fn sorted(x: &[f64]) -> Vec<f64> {
-    let mut v = x.to_vec();
+/// The N values of `x` in ascending order.
+fn sorted<const N: usize>(x: &[f64]) -> [f64; N] {
+    let mut v: [f64; N] = x.try_into().expect("N values");
     v.sort_by(f64::total_cmp);
     v
 }

@@ -161,6 +161,9 @@ pub struct Solver {
     /// q and y_u (γ) of the last converged IK of the redundant design on the solver's
     /// own model: a run from it starts with the Jacobian its last residual prepared.
     last_redundant: Option<(Vec<f64>, Vec<f64>)>,
+    /// The residual of the analyses' block evaluations (kept: an analysis allocates
+    /// nothing).
+    analysis_residual: DVector<f64>,
 }
 
 impl Solver {
@@ -196,6 +199,7 @@ impl Solver {
             speculate_trials: true,
             prepare_for_analysis: false,
             last_redundant: None,
+            analysis_residual: DVector::zeros(n),
         })
     }
 
@@ -507,19 +511,23 @@ impl Solver {
         state: &RobotState,
         extra: &Wrench,
     ) -> Result<(DVector<f64>, &BoundaryJacobians), SolveError> {
+        let mut r = DVector::zeros(self.model.n_residuals());
+        self.blocks_into(state, extra, &mut r)?;
+        Ok((r, &self.blocks))
+    }
+
+    /// [`Solver::blocks_at`] with the residual written into `r` (n_residuals long).
+    fn blocks_into(
+        &mut self,
+        state: &RobotState,
+        extra: &Wrench,
+        r: &mut DVector<f64>,
+    ) -> Result<(), SolveError> {
         let wrench = self.total_wrench(extra);
         let pose = state.pose();
         let p = state.boundary_point(&pose, &wrench);
         self.last = None;
-        let mut r = DVector::zeros(self.model.n_residuals());
-        boundary_derivatives(
-            &self.model,
-            &mut self.boundary,
-            &p,
-            &mut r,
-            &mut self.blocks,
-        )?;
-        Ok((r, &self.blocks))
+        boundary_derivatives(&self.model, &mut self.boundary, &p, r, &mut self.blocks)
     }
 
     /// Starts (or stops) keeping every leg's frames at its disks from each exact-Jacobian
@@ -635,7 +643,10 @@ impl Solver {
         if !v.0.is_empty() {
             return Err(Error::Input(v));
         }
-        self.blocks_at(state, extra)?;
+        let mut r = std::mem::take(&mut self.analysis_residual);
+        let evaluated = self.blocks_into(state, extra, &mut r);
+        self.analysis_residual = r;
+        evaluated?;
         Ok(())
     }
 }
