@@ -187,6 +187,11 @@ impl BoundaryScratch {
         self.slack_tension_directions = on;
     }
 
+    /// Whether [`BoundaryScratch::keep_slack_tension_directions`] is on.
+    pub(crate) fn keeps_slack_tension_directions(&self) -> bool {
+        self.slack_tension_directions
+    }
+
     /// How many residuals ([`boundary_residual`]) and exact Jacobians
     /// ([`boundary_derivatives`]) these buffers have evaluated (read by the tests that
     /// check the solvers' reports).

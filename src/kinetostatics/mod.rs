@@ -627,6 +627,27 @@ impl Solver {
         )?)
     }
 
+    /// ∂b/∂τ of tendon `k` of leg `leg` (its taut column in the solver's ζ) at `state`,
+    /// slack there, into `column`: from the last exact evaluation, which must be at
+    /// `state` (an analysis of it) with the slack tendons' tension directions kept (as
+    /// the one-sided kinks keep them); false where they were not.
+    pub(crate) fn taut_column_at(
+        &self,
+        state: &RobotState,
+        leg: usize,
+        k: usize,
+        column: nalgebra::DVectorViewMut<f64>,
+    ) -> bool {
+        if !self.boundary.keeps_slack_tension_directions() {
+            return false;
+        }
+        let wrench = self.total_wrench(&Wrench::default());
+        let pose = state.pose();
+        let p = state.boundary_point(&pose, &wrench);
+        crate::boundary::taut_tension_column(&self.model, &self.boundary, &p, leg, k, column);
+        true
+    }
+
     /// The exact blocks of the last [`Solver::blocks_at`] (and of every analysis).
     pub(crate) fn last_blocks(&self) -> &BoundaryJacobians {
         &self.blocks

@@ -19,7 +19,7 @@
 //! Newton's tolerance is the same whatever Jacobian it starts from; a start that does not
 //! contract tenfold is dropped for a fresh exact Jacobian.
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::Model;
@@ -105,6 +105,23 @@ impl JacobianHistory {
             .enumerate()
             .filter(|&(_, i)| state.y_u[i] > 0.0)
             .fold(0, |bits, (k, _)| bits | 1 << k);
+    }
+
+    /// Hands the solver the last extrapolation ([`JacobianHistory::seed`]) with `columns`
+    /// (index in \[q, ζ\], column) in place of its own: the other sides' columns of a
+    /// start across kinks ([`super::kink_start`]). Nothing if the history is empty.
+    pub(super) fn seed_with_columns<'c>(
+        &mut self,
+        solver: &mut Solver,
+        columns: impl Iterator<Item = (usize, &'c DVector<f64>)>,
+    ) {
+        if self.len == 0 {
+            return;
+        }
+        for (index, column) in columns {
+            self.next.column_mut(index).copy_from(column);
+        }
+        solver.reuse_ik_jacobian(&self.next);
     }
 
     /// Hands the solver the Jacobians extrapolated one step ahead (nothing if empty).

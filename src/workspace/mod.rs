@@ -62,6 +62,7 @@ pub mod metrics;
 mod cells;
 mod chord_jacobian;
 mod ends;
+mod kink_start;
 mod plane;
 mod predict;
 mod settings;

@@ -9,18 +9,19 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::boundary::BoundaryJacobians;
+use crate::boundary::{BoundaryJacobians, convert_tendon_unknowns};
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
-use crate::rod::tendon::tension;
+use crate::rod::tendon::{TendonUnknown, tension};
 use crate::rod::{ShapeDetail, Wrench};
 
 use super::chord_jacobian::JacobianHistory;
 use super::collision::CollisionChecker;
 use super::ends::End;
+use super::kink_start::KinkStart;
 use super::metrics::{AnalysisSettings, PointMetrics, complete_scaled, point_metrics_deferred};
 use super::predict::{PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state};
 use super::settings::{CollisionPolicy, WorkspaceSettings};
@@ -109,6 +110,8 @@ pub(super) struct Worker {
     collisions: CollisionChecker,
     /// The exact Jacobians at the last solutions on the path being walked.
     jacobians: JacobianHistory,
+    /// The start of a step across tendons' kinks from the last solution.
+    kinks: KinkStart,
     /// Singularity thresholds of the per-point measures.
     analysis: AnalysisSettings,
     /// The message of the last [`End::Failed`].
@@ -128,10 +131,12 @@ impl Worker {
         solver.prepare_for_analysis(true);
         let collisions = CollisionChecker::new(solver.model());
         let jacobians = JacobianHistory::new(solver.model());
+        let kinks = KinkStart::new(solver.model());
         Ok(Self {
             solver,
             collisions,
             jacobians,
+            kinks,
             analysis: settings.analysis,
             error: None,
         })
@@ -177,6 +182,7 @@ impl Worker {
         // solutions, extrapolated to the next point.
         self.jacobians.push(model, &self.solver, &state);
         self.jacobians.seed(&mut self.solver);
+        self.kinks.record(model, &self.solver, &state);
         let collision = !clear && {
             work.collision_integrations.fetch_add(1, Ordering::Relaxed);
             match self.collisions.check(model, &state) {
@@ -211,7 +217,9 @@ impl Worker {
         let last = history[history.len() - 1];
         let predicted = match start {
             Some(_) => None,
-            None => predict(model, history),
+            None => {
+                predict(model, history).map(|p| self.across_kinks(model, history, p, &position))
+            }
         };
         let guess = start.or(predicted.as_ref()).unwrap_or(last);
         // The full budget only if the first iterations made progress.
@@ -226,6 +234,36 @@ impl Worker {
             .solve_on_branch(&pose, guess, &newton, history, work)
             .map_err(|e| self.end_of(e))?;
         self.classify(model, sol.state, work)
+    }
+
+    /// `predicted` (from `history`) taken across one or two tendons' kinks where
+    /// [`KinkStart::across`] does, the solver's seeded Jacobian given those tendons'
+    /// other columns; else `predicted` as it is.
+    fn across_kinks(
+        &mut self,
+        model: &Model,
+        history: &[&RobotState],
+        predicted: RobotState,
+        position: &Vector3<f64>,
+    ) -> RobotState {
+        let last = history[history.len() - 1];
+        let last_zeta = in_zeta(model, last);
+        let nq = model.n_actuators();
+        let mut y = predicted.q.clone();
+        y.extend(in_zeta(model, &predicted));
+        let d = position - Vector3::from(last.position);
+        if !self.kinks.across(model, last, &last_zeta, &mut y, &d) {
+            return predicted;
+        }
+        self.jacobians
+            .seed_with_columns(&mut self.solver, self.kinks.columns());
+        let mut y_u = y.split_off(nq);
+        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
+        RobotState {
+            q: y,
+            y_u,
+            ..predicted
+        }
     }
 
     /// The IK of a path step from `guess` (the prediction from `history`), first with
