@@ -105,7 +105,9 @@ impl KinkStart {
     /// The start across kinks: `y` (\[q, ζ\], `predict`'s start with the crossing tendons
     /// at ζ = 0) moved as the module docs say, for a step `d` \[m\] from `last` (its leg
     /// unknowns in ζ `last_zeta`), if `last` is the recorded solution and one or two
-    /// tendons cross within the step; true if it did (`y` unchanged otherwise).
+    /// tendons cross within the step; true if it did (false: `y` is unchanged, or partly
+    /// moved where the tendons would not change sides, and the caller keeps its own
+    /// start).
     pub(super) fn across(
         &mut self,
         model: &Model,
