@@ -611,6 +611,14 @@ pub(crate) fn taut_tension_column(
     leg_unknown_column(model, sc, p, leg, k, 1.0, 0.0, column);
 }
 
+/// The slack side's column ∂b/∂ζ of tendon `k` of leg `leg` (ζ < 0, the solver's
+/// unknown): dΘ/dζ = −1 in its length row, zero elsewhere (a slack tendon's tension, and
+/// with it the rod, does not depend on ζ), into `column` (n_residuals long).
+pub(crate) fn slack_side_column(model: &Model, leg: usize, k: usize, column: &mut DVector<f64>) {
+    column.fill(0.0);
+    column[leg_row(model, leg) + 6 + k] = -1.0;
+}
+
 /// B_w: the force rows see −f_ext, the moment rows −l_ext.
 fn fill_b_w(b_w: &mut DMatrix<f64>) {
     b_w.as_mut_slice().fill(0.0);

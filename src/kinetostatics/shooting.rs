@@ -20,7 +20,7 @@ use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
     boundary_derivatives_fd, boundary_residual, boundary_residual_with_derivatives,
-    convert_tendon_unknowns, taut_tension_column,
+    convert_tendon_unknowns, slack_side_column, taut_tension_column,
 };
 use crate::design::MAX_TENDONS;
 use crate::error::SolveError;
@@ -456,8 +456,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
         }
         let (leg, k) = ((j - head) / nu, (j - head) % nu);
         if z >= 0.0 {
-            column.fill(0.0);
-            column[6 + leg * nu + 6 + k] = -1.0;
+            slack_side_column(self.model, leg, k, column);
         } else {
             // Kept at x (NaN never compares equal), where this tendon was slack.
             if self.taut.at != *x {

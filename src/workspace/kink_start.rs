@@ -25,15 +25,13 @@
 
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2, Vector3};
 
+use crate::boundary::{convert_tendon_unknowns, slack_side_column};
 use crate::kinetostatics::{RobotState, Solver};
 use crate::linalg::DenseLu;
 use crate::model::Model;
+use crate::rod::tendon::TendonUnknown;
 
-/// The row of tendon unknown `i` (index in y_u) in the boundary residual: 6 platform
-/// rows, then per leg 3 coupling, 3 joint-moment and n_t tendon-length rows.
-fn length_row(i: usize) -> usize {
-    12 + i
-}
+use super::predict::in_zeta;
 
 /// What the start needs of the last solution of a path, and buffers.
 #[derive(Debug, Clone)]
@@ -102,44 +100,71 @@ impl KinkStart {
         }
     }
 
-    /// The start across kinks: `y` (\[q, ζ\], `predict`'s start with the crossing tendons
-    /// at ζ = 0) moved as the module docs say, for a step `d` \[m\] from `last` (its leg
-    /// unknowns in ζ `last_zeta`), if `last` is the recorded solution and one or two
-    /// tendons cross within the step; true if it did (false: `y` is unchanged, or partly
-    /// moved where the tendons would not change sides, and the caller keeps its own
-    /// start).
+    /// The start across kinks from `predicted` (`predict`'s start, the crossing tendons at
+    /// their kinks, γ = 0) to the pose `position` \[m\], moved as the module docs say, if
+    /// `last` is the recorded solution and one or two tendons cross within the step;
+    /// `None` otherwise (most steps: no tendon crosses, and nothing is computed).
     pub(super) fn across(
         &mut self,
         model: &Model,
         last: &RobotState,
-        last_zeta: &[f64],
-        y: &mut [f64],
-        d: &Vector3<f64>,
-    ) -> bool {
+        predicted: &RobotState,
+        position: &Vector3<f64>,
+    ) -> Option<RobotState> {
         self.count = 0;
         if !self.valid || self.at != last.q {
-            return false;
+            return None;
         }
-        let nq = model.n_actuators();
-        let (nu, nt) = (model.n_leg_unknowns(), model.n_tendons());
         let mut crossing = [0usize; 2];
         let mut count = 0;
         for i in model.tendon_unknown_indices() {
-            if y[nq + i] == 0.0 && last_zeta[i] != 0.0 {
+            if predicted.y_u[i] == 0.0 && last.y_u[i] != 0.0 {
                 if count == 2 {
-                    return false;
+                    return None;
                 }
                 crossing[count] = i;
                 count += 1;
             }
         }
         if count == 0 {
-            return false;
+            return None;
         }
-        for (column, &i) in self.columns.iter_mut().zip(&crossing[..count]) {
+        let nq = model.n_actuators();
+        let last_zeta = in_zeta(model, last);
+        let mut y = predicted.q.clone();
+        y.extend(in_zeta(model, predicted));
+        let d = position - Vector3::from(last.position);
+        if !self.move_across(model, &last_zeta, &crossing[..count], &mut y, &d) {
+            return None;
+        }
+        let mut y_u = y.split_off(nq);
+        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
+        Some(RobotState {
+            position: predicted.position,
+            rotvec: predicted.rotvec,
+            q: y,
+            y_u,
+        })
+    }
+
+    /// [`KinkStart::across`] in \[q, ζ\]: `y` moved for the tendons `crossing` (indices in
+    /// y_u) along the step `d` from the recorded solution (its leg unknowns in ζ
+    /// `last_zeta`); false where they do not cross within the step or would not change
+    /// sides (`y` then partly moved, to be dropped).
+    fn move_across(
+        &mut self,
+        model: &Model,
+        last_zeta: &[f64],
+        crossing: &[usize],
+        y: &mut [f64],
+        d: &Vector3<f64>,
+    ) -> bool {
+        let count = crossing.len();
+        let nq = model.n_actuators();
+        let (nu, nt) = (model.n_leg_unknowns(), model.n_tendons());
+        for (column, &i) in self.columns.iter_mut().zip(crossing) {
             if last_zeta[i] > 0.0 {
-                column.fill(0.0);
-                column[length_row(i)] = -1.0;
+                slack_side_column(model, i / nu, i % nu, column);
             } else if let Some(taut) = &self.taut {
                 column.copy_from(&taut.column((i / nu) * nt + i % nu));
             } else {

@@ -9,13 +9,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::boundary::{BoundaryJacobians, convert_tendon_unknowns};
+use crate::boundary::BoundaryJacobians;
 use crate::design::Tdpcr;
 use crate::error::{Error, SolveError, StopReason};
 use crate::kinetostatics::{RobotState, Solution, Solver};
 use crate::model::{Model, Pose};
 use crate::newton::{NewtonReport, NewtonSettings, ProgressCheck};
-use crate::rod::tendon::{TendonUnknown, tension};
+use crate::rod::tendon::tension;
 use crate::rod::{ShapeDetail, Wrench};
 
 use super::chord_jacobian::JacobianHistory;
@@ -247,22 +247,13 @@ impl Worker {
         position: &Vector3<f64>,
     ) -> RobotState {
         let last = history[history.len() - 1];
-        let last_zeta = in_zeta(model, last);
-        let nq = model.n_actuators();
-        let mut y = predicted.q.clone();
-        y.extend(in_zeta(model, &predicted));
-        let d = position - Vector3::from(last.position);
-        if !self.kinks.across(model, last, &last_zeta, &mut y, &d) {
-            return predicted;
-        }
-        self.jacobians
-            .seed_with_columns(&mut self.solver, self.kinks.columns());
-        let mut y_u = y.split_off(nq);
-        convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
-        RobotState {
-            q: y,
-            y_u,
-            ..predicted
+        match self.kinks.across(model, last, &predicted, position) {
+            Some(start) => {
+                self.jacobians
+                    .seed_with_columns(&mut self.solver, self.kinks.columns());
+                start
+            }
+            None => predicted,
         }
     }
 
