@@ -613,7 +613,8 @@ fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
 /// convergence superlinear. A trial point is evaluated together with its Jacobian when the
 /// last step contracted poorly (a fresh Jacobian will be needed there anyway), unless a
 /// trial of the same iteration was already rejected or the last iteration's first trial
-/// was ([`SKIP_AFTER_REJECTION`]), or the trial is a full Newton step from a Jacobian at
+/// was ([`SKIP_AFTER_REJECTION`]), or the run is stalling ([`STALL_RATIO`]; the Jacobian
+/// then follows at the trial once it is accepted), or the trial is a full Newton step from a Jacobian at
 /// the iterate that is expected to converge ([`FRESH_STEP_PREDICTION`]; it is then
 /// evaluated as a chord trial that ends the run). A chord trial that [`ends_the_run`]
 /// predicts to converge is evaluated by [`NonlinearSystem::final_residual`] if the system
@@ -635,6 +636,7 @@ pub fn solve<S: NonlinearSystem>(
     let rules = Rules {
         skip_after_rejection: SKIP_AFTER_REJECTION,
         fresh_step_prediction: FRESH_STEP_PREDICTION,
+        stall_ratio: STALL_RATIO,
     };
     solve_with_rule(system, x, settings, sc, rules)
 }
@@ -668,6 +670,31 @@ pub const SKIP_AFTER_REJECTION: bool = true;
 /// Jacobian's integration) and a plain one.
 pub const FRESH_STEP_PREDICTION: f64 = 0.01;
 
+/// The first trial of an iteration goes without its Jacobian (evaluated at the trial
+/// once it is accepted: the same iterates, one residual more) when each of the last two
+/// iterations left more than this fraction of ‖F‖ (test units): a run stalling at a
+/// positive minimum of its merit, as steps beyond a fold of the IK do until their
+/// progress check or iteration limit ends them, rejects many of its trials, and each
+/// rejected trial's Jacobian was wasted.
+///
+/// Measured (2026-11-27, sixteenth session) over the trials so evaluated with their
+/// Jacobians in the design search's evaluations of the reference and two drawn candidates
+/// (`candidate_cost 2`): after two such iterations 1 363 of 3 182 were accepted (43 %;
+/// a deferred Jacobian costs one residual more where accepted and saves the tangents,
+/// about four residuals more, where rejected), after one 1 340 of 1 590 and after none
+/// 1 793 of 1 853; on the reference's Δ = 3 mm sweep (z ∈ [−30, 0] mm) 76 of 3 422 trials
+/// came after two such iterations.
+pub const STALL_RATIO: f64 = 0.5;
+
+/// Whether the last two iterations of `history` (‖F‖ at the accepted iterates, the start
+/// first) each left more than `ratio` of ‖F‖ ([`STALL_RATIO`]).
+fn stalling(history: &[f64], ratio: f64) -> bool {
+    match history {
+        [.., a, b, c] => *b > ratio * *a && *c > ratio * *b,
+        _ => false,
+    }
+}
+
 /// Whether a full Newton step from a Jacobian at the iterate, whose residual norm is
 /// `norm` (test units), is expected to converge ([`FRESH_STEP_PREDICTION`]).
 fn fresh_step_ends_the_run(norm: f64, tolerance: f64, prediction: f64) -> bool {
@@ -681,6 +708,8 @@ struct Rules {
     skip_after_rejection: bool,
     /// [`FRESH_STEP_PREDICTION`] (0: no fresh step's trial is expected to converge).
     fresh_step_prediction: f64,
+    /// [`STALL_RATIO`] (∞: no trial's Jacobian is deferred for stalling).
+    stall_ratio: f64,
 }
 
 /// [`solve`] with its evaluation rules given.
@@ -879,8 +908,11 @@ fn solve_with_rule<S: NonlinearSystem>(
                 && fresh
                 && full_newton
                 && fresh_step_ends_the_run(norm, settings.tolerance, rules.fresh_step_prediction);
-            let with_jacobian =
-                wanted && !(rules.skip_after_rejection && first_rejected) && !converging;
+            // The Jacobian waits for the trial's acceptance after a rejection, where the
+            // run is stalling, and is not needed where the trial is expected to converge.
+            let waits = (rules.skip_after_rejection && first_rejected)
+                || stalling(&sc.history, rules.stall_ratio);
+            let with_jacobian = wanted && !waits && !converging;
             if !rejected {
                 deferred = wanted && !with_jacobian;
             }
@@ -1768,49 +1800,75 @@ mod tests {
         (report, x, system.points)
     }
 
-    #[test]
-    fn deferring_the_jacobian_after_a_rejection_keeps_every_iterate() {
+    /// Runs from every one of [`RECORDED_STARTS`] under the rules `before` and `after`
+    /// (a deferral of some trials' Jacobians) and checks that `after` keeps every
+    /// iterate and the solution bit for bit and evaluates each of its Jacobians at a
+    /// point that had one under `before`, in the same order, and no more of them.
+    /// Returns, per start, whether it is Powell's and the Jacobians saved.
+    fn deferral_keeps_every_iterate(before: Rules, after: Rules) -> Vec<(bool, usize)> {
         let settings = NewtonSettings {
             tolerance: 1e-12,
             max_iterations: 200,
             ..Default::default()
         };
-        for (powell, start) in RECORDED_STARTS {
-            let run = |skip: bool| {
-                let rules = Rules {
-                    skip_after_rejection: skip,
-                    fresh_step_prediction: 0.0,
-                };
-                recorded_run(powell, start, &settings, rules)
-            };
-            let (before, x_before, points_before) = run(false);
-            let (after, x_after, points_after) = run(true);
-            // The same iterates and solution bit for bit, fewer Jacobians, each at a point
-            // that had one before, in the same order.
-            let bits = |x: &DVector<f64>| (x[0].to_bits(), x[1].to_bits());
-            assert_eq!(after.iterations, before.iterations, "from {start:?}");
-            assert_eq!(bits(&x_after), bits(&x_before), "from {start:?}");
-            let with_jacobian = |points: &[(f64, f64, bool)]| -> Vec<(u64, u64)> {
-                points
-                    .iter()
-                    .filter(|p| p.2)
-                    .map(|p| (p.0.to_bits(), p.1.to_bits()))
-                    .collect()
-            };
-            let (jb, ja) = (with_jacobian(&points_before), with_jacobian(&points_after));
-            assert_eq!(ja.len(), after.jacobian_evaluations);
-            assert_eq!(points_after.len(), after.residual_evaluations);
-            let mut rest = jb.iter();
-            assert!(ja.iter().all(|p| rest.any(|q| q == p)), "from {start:?}");
-            assert!(
-                after.jacobian_evaluations <= before.jacobian_evaluations,
-                "from {start:?}: {after:?} vs {before:?}"
-            );
-            if powell {
-                // Long streaks of rejections: Jacobians saved.
-                assert!(after.jacobian_evaluations < before.jacobian_evaluations);
-            }
+        let bits = |x: &DVector<f64>| (x[0].to_bits(), x[1].to_bits());
+        let with_jacobian = |points: &[(f64, f64, bool)]| -> Vec<(u64, u64)> {
+            points
+                .iter()
+                .filter(|p| p.2)
+                .map(|p| (p.0.to_bits(), p.1.to_bits()))
+                .collect()
+        };
+        RECORDED_STARTS
+            .into_iter()
+            .map(|(powell, start)| {
+                let (b, x_b, points_b) = recorded_run(powell, start, &settings, before);
+                let (a, x_a, points_a) = recorded_run(powell, start, &settings, after);
+                assert_eq!(a.iterations, b.iterations, "from {start:?}");
+                assert_eq!(bits(&x_a), bits(&x_b), "from {start:?}");
+                let (jb, ja) = (with_jacobian(&points_b), with_jacobian(&points_a));
+                assert_eq!(ja.len(), a.jacobian_evaluations);
+                assert_eq!(points_a.len(), a.residual_evaluations);
+                let mut rest = jb.iter();
+                assert!(ja.iter().all(|p| rest.any(|q| q == p)), "from {start:?}");
+                assert!(
+                    a.jacobian_evaluations <= b.jacobian_evaluations,
+                    "from {start:?}: {a:?} vs {b:?}"
+                );
+                (powell, b.jacobian_evaluations - a.jacobian_evaluations)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn deferring_the_jacobian_after_a_rejection_keeps_every_iterate() {
+        let rules = |skip_after_rejection| Rules {
+            skip_after_rejection,
+            fresh_step_prediction: 0.0,
+            stall_ratio: f64::INFINITY,
+        };
+        for (powell, saved) in deferral_keeps_every_iterate(rules(false), rules(true)) {
+            // Long streaks of rejections: Jacobians saved.
+            assert!(!powell || saved > 0, "Powell's run saved no Jacobian");
         }
+    }
+
+    /// A stalling run's trials go without their Jacobians ([`STALL_RATIO`]): the same
+    /// iterates and solution bit for bit, each Jacobian at a point that had one before,
+    /// and fewer Jacobians over these runs (one residual more per deferred trial that is
+    /// accepted).
+    #[test]
+    fn deferring_a_stalling_runs_jacobians_keeps_every_iterate() {
+        let rules = |stall_ratio| Rules {
+            skip_after_rejection: SKIP_AFTER_REJECTION,
+            fresh_step_prediction: FRESH_STEP_PREDICTION,
+            stall_ratio,
+        };
+        let saved: usize = deferral_keeps_every_iterate(rules(f64::INFINITY), rules(STALL_RATIO))
+            .iter()
+            .map(|(_, saved)| saved)
+            .sum();
+        assert!(saved > 0, "no Jacobian saved");
     }
 
     /// A full Newton step from a fresh Jacobian expected to converge
@@ -1831,6 +1889,7 @@ mod tests {
                     let rules = Rules {
                         skip_after_rejection: SKIP_AFTER_REJECTION,
                         fresh_step_prediction: prediction,
+                        stall_ratio: f64::INFINITY,
                     };
                     recorded_run(powell, start, &settings, rules)
                 };
