@@ -120,11 +120,15 @@ pub enum StopReason {
     ContinuationStalled,
     /// Some steps of a trajectory failed (the CLI's summary of a trajectory).
     TrajectoryStepsFailed,
+    /// The iterates converge to a solution beyond the actuation limits, which the caller
+    /// asked not to finish ([`crate::kinetostatics::Solver::stop_beyond_limits`]: the
+    /// workspace sweep, whose rays end there either way).
+    BeyondActuationLimits,
 }
 
 impl StopReason {
     /// Every reason, in declaration order.
-    pub const ALL: [Self; 9] = [
+    pub const ALL: [Self; 10] = [
         Self::IterationLimit,
         Self::TooLittleProgress,
         Self::TrustRegionCollapsed,
@@ -134,6 +138,7 @@ impl StopReason {
         Self::NoStepWithinLimits,
         Self::ContinuationStalled,
         Self::TrajectoryStepsFailed,
+        Self::BeyondActuationLimits,
     ];
 
     /// The stable snake_case name, as serialized.
@@ -148,6 +153,7 @@ impl StopReason {
             Self::NoStepWithinLimits => "no_step_within_limits",
             Self::ContinuationStalled => "continuation_stalled",
             Self::TrajectoryStepsFailed => "trajectory_steps_failed",
+            Self::BeyondActuationLimits => "beyond_actuation_limits",
         }
     }
 }
@@ -169,6 +175,9 @@ impl std::fmt::Display for StopReason {
                 "continuation towards the target stalled (a fold or no equilibrium?)"
             }
             Self::TrajectoryStepsFailed => "some trajectory steps failed (see converged = false)",
+            Self::BeyondActuationLimits => {
+                "the iterates converge to a solution beyond the actuation limits"
+            }
         })
     }
 }

@@ -144,15 +144,19 @@ impl Model {
 
     /// Every |q_b| and |q_t| within its actuation limit (MODEL.md §1).
     pub fn within_limits(&self, q: &[f64]) -> bool {
-        let per_leg = self.pairs + 1;
-        q.iter().enumerate().all(|(i, x)| {
-            let limit = if i % per_leg == self.pairs {
-                self.limits.base_translation
-            } else {
-                self.limits.tendon_displacement
-            };
-            x.abs() <= limit
-        })
+        q.iter()
+            .enumerate()
+            .all(|(i, x)| x.abs() <= self.actuation_limit(i))
+    }
+
+    /// The limit of |q_i| \[m\]: the base translation's for each leg's last actuator,
+    /// the tendon displacement's for its pairs.
+    pub fn actuation_limit(&self, i: usize) -> f64 {
+        if i % (self.pairs + 1) == self.pairs {
+            self.limits.base_translation
+        } else {
+            self.limits.tendon_displacement
+        }
     }
 
     /// Base translation q_t of leg i.

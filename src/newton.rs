@@ -54,6 +54,14 @@ pub trait NonlinearSystem {
         c.fill(1.0);
     }
 
+    /// Whether the run may stop at `x` because the solution its iterates converge to is
+    /// certainly one the caller would reject: asked once the last iteration reduced ‖F‖
+    /// at least tenfold, with `step` the full Newton step from `x` (the rest of the way
+    /// to the solution, to first order). Default: never.
+    fn beyond_reach(&self, _x: &DVector<f64>, _step: &DVector<f64>) -> bool {
+        false
+    }
+
     /// The largest fraction α ∈ (0, 1] of `step` to take from `x` (default 1): a system
     /// with kinks (piecewise-linear unknowns) stops a step where it would cross one.
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
@@ -686,6 +694,14 @@ pub const FRESH_STEP_PREDICTION: f64 = 0.01;
 /// came after two such iterations.
 pub const STALL_RATIO: f64 = 0.5;
 
+/// Whether the last iteration of `history` (‖F‖ at the accepted iterates, the start
+/// first) reduced ‖F‖ at least tenfold: the run is then converging, and its Newton step
+/// is the rest of the way to the solution to first order
+/// ([`NonlinearSystem::beyond_reach`]).
+fn contracted_tenfold(history: &[f64]) -> bool {
+    matches!(history, [.., a, b] if *b <= 0.1 * *a)
+}
+
 /// Whether the last two iterations of `history` (‖F‖ at the accepted iterates, the start
 /// first) each left more than `ratio` of ‖F‖ ([`STALL_RATIO`]).
 fn stalling(history: &[f64], ratio: f64) -> bool {
@@ -819,6 +835,9 @@ fn solve_with_rule<S: NonlinearSystem>(
         }
         sc.kink_shift.fill(0.0);
         let mut newton_ok = newton_step(sc);
+        if newton_ok && contracted_tenfold(&sc.history) && system.beyond_reach(x, &sc.newton_step) {
+            return Err(settings.not_converged(&report, StopReason::BeyondActuationLimits));
+        }
         // Whether the factored Jacobian holds one-sided columns (the two-sided one is then
         // in `sc.jac_two_sided`).
         let mut one_sided = false;

@@ -410,6 +410,62 @@ fn least_norm_steps_from_the_last_factorization_repeat_going_back_and_forth() {
     }
 }
 
+/// `Solver::stop_beyond_limits` ends a warm IK whose solution lies beyond the actuation
+/// limits once an iteration has contracted tenfold, with that reason and less work than
+/// the run that finishes, and changes nothing where the solution is within the limits:
+/// rays out from the plane z = −30 mm in 6 mm steps, each step warm-started from the last
+/// solution, solved with and without the stop until the solution leaves the limits.
+#[test]
+fn a_warm_ik_heading_beyond_the_limits_stops_early_and_no_other_changes() {
+    use tdpcr::error::{SolveError, StopReason};
+    let w = Wrench::default();
+    let mut stopped = 0;
+    for angle in [0.0_f64, 1.0, 2.0, 3.0, 4.0, 5.0] {
+        let mut finishing = solver("lilge2022.ron");
+        let mut stopping = solver("lilge2022.ron");
+        stopping.stop_beyond_limits = true;
+        let model = finishing.model().clone();
+        let at = |r: f64| Pose {
+            position: Vector3::new(r * angle.cos(), r * angle.sin(), -0.03),
+            rotation: Matrix3::identity(),
+        };
+        let mut last = finishing.solve_ik(&at(0.0), &w, None).unwrap().state;
+        stopping.solve_ik(&at(0.0), &w, None).unwrap();
+        for step in 1..40 {
+            let target = at(0.006 * step as f64);
+            let Ok(finished) = finishing.solve_ik(&target, &w, Some(&last)) else {
+                break;
+            };
+            let stop = stopping.solve_ik(&target, &w, Some(&last));
+            if model.within_limits(&finished.state.q) {
+                let same = stop.expect("a solution within the limits is found");
+                let bits = |s: &RobotState| s.q.iter().map(|q| q.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&same.state),
+                    bits(&finished.state),
+                    "angle {angle}, step {step}"
+                );
+                last = finished.state;
+                continue;
+            }
+            match stop {
+                Err(Error::Solve(SolveError::NotConverged {
+                    reason, iterations, ..
+                })) => {
+                    assert_eq!(reason, StopReason::BeyondActuationLimits);
+                    assert!(iterations < finished.report.iterations, "angle {angle}");
+                    stopped += 1;
+                }
+                // Converged before any iteration could stop it: the same solution.
+                Ok(same) => assert_eq!(same.state.q, finished.state.q, "angle {angle}"),
+                Err(e) => panic!("angle {angle}, step {step}: {e}"),
+            }
+            break;
+        }
+    }
+    assert!(stopped > 0, "no run stopped early");
+}
+
 #[test]
 fn bad_input_and_unreachable_poses_are_errors_not_panics() {
     let mut s = solver("lilge2022.ron");

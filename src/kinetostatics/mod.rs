@@ -66,6 +66,7 @@ use target::{Target, solve_target};
 pub use home::{home_guess, straight_leg_pose, straight_leg_translations};
 use redundant::LastLeastNorm;
 pub use redundant::{Objective, Redundancy};
+pub use shooting::BEYOND_LIMITS_MARGIN;
 pub use state::{RobotState, Solution};
 
 /// The tendon variable Newton iterates on (states report γ): the piecewise-linear ζ
@@ -128,6 +129,14 @@ pub struct Solver {
     /// follows the old side's slope beyond the kink, overshoots, and the trust region
     /// collapses before the pair crawls across (BENCHMARKS.md "Heavy solves").
     pub one_sided_kinks: bool,
+    /// Whether a square IK (the 6-DoF designs) stops as soon as its solution is certainly
+    /// beyond the actuation limits ([`StopReason::BeyondActuationLimits`](crate::error::StopReason::BeyondActuationLimits)): once an
+    /// iteration reduced ‖F‖ tenfold, when some q_i plus its Newton step lies beyond
+    /// its limit by more than [`BEYOND_LIMITS_MARGIN`] × the step's largest |δq_j|
+    /// (the rest of the way, which shrinks tenfold or more per iteration from there).
+    /// For callers that reject such solutions anyway (the workspace sweep ends its rays
+    /// there either way); off by default.
+    pub stop_beyond_limits: bool,
     /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
     one_sided_columns_used: usize,
     /// The work of every Newton run of the current call, converged or not (a direct
@@ -189,6 +198,7 @@ impl Solver {
             reuse_jacobian: true,
             reuse_least_norm_factorization: false,
             one_sided_kinks: false,
+            stop_beyond_limits: false,
             one_sided_columns_used: 0,
             work: NewtonReport::none(),
             last: None,

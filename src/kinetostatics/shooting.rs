@@ -23,7 +23,7 @@ use crate::boundary::{
     convert_tendon_unknowns, slack_side_column, taut_tension_column,
 };
 use crate::design::MAX_TENDONS;
-use crate::error::SolveError;
+use crate::error::{SolveError, StopReason};
 use crate::model::{Model, Pose};
 use crate::newton::{self, NewtonReport, NewtonSettings, NonlinearSystem, RowScales};
 use crate::rod::Wrench;
@@ -38,6 +38,12 @@ pub(super) enum Problem<'a> {
 
 /// Tendon crossings earlier than this fraction of a Newton step do not limit it.
 const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
+
+/// How many times the largest |δq_j| of the Newton step an IK's q plus that step must lie
+/// beyond an actuation limit for [`Solver::stop_beyond_limits`] to stop the run: after an
+/// iteration that reduced ‖F‖ tenfold the rest of the way is about the step itself (the
+/// steps after it shrink at least as fast), so the solution lies beyond the limit too.
+pub const BEYOND_LIMITS_MARGIN: f64 = 10.0;
 
 /// Newton from `guess` on `problem`, with `scaled` replacing the model if given.
 pub(super) fn run_with(
@@ -107,6 +113,7 @@ pub(super) fn run_with(
         taut: &mut solver.taut_columns,
         evaluated: NewtonReport::none(),
         prepare: solver.prepare_for_analysis && scaled.is_none(),
+        stop_beyond_limits: solver.stop_beyond_limits,
     };
     // From the prediction if there is one; from the guess itself if that fails. Every
     // run's work, converged or not, goes to the solver's tally of the call.
@@ -117,6 +124,14 @@ pub(super) fn run_with(
                 x = xp;
                 Ok(r)
             }
+            // Stopped on its way to a solution beyond the limits: the run from the guess
+            // would not have been tried after that solution either.
+            Err(
+                e @ SolveError::NotConverged {
+                    reason: StopReason::BeyondActuationLimits,
+                    ..
+                },
+            ) => Err(e),
             Err(e) => {
                 work = NewtonReport::of_failed_run(&e, &system.evaluated);
                 system.evaluated = NewtonReport::none();
@@ -237,6 +252,8 @@ struct ShootingSystem<'a> {
     /// Whether a run's expected last residual is prepared for the analysis of its
     /// solution ([`Solver::prepare_for_analysis`]).
     prepare: bool,
+    /// [`Solver::stop_beyond_limits`].
+    stop_beyond_limits: bool,
 }
 
 /// The taut side's columns ∂b/∂τ_k of the tendons that were slack (ζ < 0) at the last
@@ -400,6 +417,19 @@ impl NonlinearSystem for ShootingSystem<'_> {
         )
     }
 
+    fn beyond_reach(&self, x: &DVector<f64>, step: &DVector<f64>) -> bool {
+        // A run that took one-sided columns finishes: its caller may compare its solution
+        // with a two-sided run's (the sweep's `solve_on_branch`).
+        if !self.stop_beyond_limits
+            || matches!(self.problem, Problem::Forward { .. })
+            || self.one_sided_columns_used.get() > 0
+        {
+            return false;
+        }
+        let head = self.head();
+        beyond_limits(self.model, &x.as_slice()[..head], &step.as_slice()[..head])
+    }
+
     fn step_limit(&self, x: &DVector<f64>, step: &DVector<f64>) -> f64 {
         // Stop at the first tendon that would cross between taut and slack (ζ = 0, the
         // kink of the piecewise-linear variable): semismooth Newton otherwise cycles there.
@@ -469,6 +499,17 @@ impl NonlinearSystem for ShootingSystem<'_> {
         // The kink is at ζ = 0.
         Some(z)
     }
+}
+
+/// Whether the actuation `q` \[m\] moved by its Newton step `dq` ends beyond an
+/// actuation limit by more than [`BEYOND_LIMITS_MARGIN`] × max_j |dq_j|
+/// ([`Solver::stop_beyond_limits`]).
+fn beyond_limits(model: &Model, q: &[f64], dq: &[f64]) -> bool {
+    let reach = BEYOND_LIMITS_MARGIN * dq.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+    q.iter()
+        .zip(dq)
+        .enumerate()
+        .any(|(i, (q, d))| (q + d).abs() > model.actuation_limit(i) + reach)
 }
 
 /// [`boundary_residual_with_derivatives`] at the pose, actuation and wrench `at` and the
@@ -580,6 +621,7 @@ mod tests {
                 evaluated: NewtonReport::none(),
                 taut: &mut self.taut,
                 prepare: false,
+                stop_beyond_limits: false,
             }
         }
     }

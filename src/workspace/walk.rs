@@ -126,6 +126,9 @@ impl Worker {
         solver.settings.max_iterations = settings.max_iterations;
         solver.redundancy = settings.redundancy.clone();
         solver.one_sided_kinks = settings.one_sided_kinks;
+        // A step whose solution is certainly beyond the limits ends its ray as the
+        // solution itself would (`classify`), a few iterations sooner.
+        solver.stop_beyond_limits = true;
         // Every solution within the limits is analysed (`classify`): its Newton run's
         // expected last residual integrates what that analysis needs.
         solver.prepare_for_analysis(true);
@@ -142,10 +145,15 @@ impl Worker {
         })
     }
 
-    /// [`End::NotConverged`] for a solve that stopped without a solution, [`End::Failed`]
-    /// (keeping the message) for any other error.
+    /// [`End::Limits`] for a solve stopped because its solution is beyond the actuation
+    /// limits ([`Solver::stop_beyond_limits`]), [`End::NotConverged`] for one that stopped
+    /// without a solution, [`End::Failed`] (keeping the message) for any other error.
     fn end_of(&mut self, e: Error) -> End {
         match e {
+            Error::Solve(SolveError::NotConverged {
+                reason: StopReason::BeyondActuationLimits,
+                ..
+            }) => End::Limits,
             Error::Solve(SolveError::NotConverged { .. }) => End::NotConverged,
             other => {
                 self.error = Some(other.to_string());
@@ -299,11 +307,14 @@ impl Worker {
             }
             return first;
         }
-        // The same run as the first, two-sided: from the same extrapolated Jacobian.
+        // The same run as the first, two-sided: from the same extrapolated Jacobian, and
+        // to its end (its solution is compared with the first's even beyond the limits).
         self.jacobians.seed(&mut self.solver);
         let one_sided = std::mem::replace(&mut self.solver.one_sided_kinks, false);
+        let stop = std::mem::replace(&mut self.solver.stop_beyond_limits, false);
         let second = self.solver.solve_ik_newton_with(pose, &zero, guess, newton);
         self.solver.one_sided_kinks = one_sided;
+        self.solver.stop_beyond_limits = stop;
         work.solves.fetch_add(1, Ordering::Relaxed);
         for s in [&first, &second].into_iter().flatten() {
             work.add(&s.report);
