@@ -622,14 +622,17 @@ fn weighted_norm_sq(r: &DVector<f64>, w: &DVector<f64>) -> f64 {
 /// last step contracted poorly (a fresh Jacobian will be needed there anyway), unless a
 /// trial of the same iteration was already rejected or the last iteration's first trial
 /// was ([`SKIP_AFTER_REJECTION`]), or the run is stalling ([`STALL_RATIO`]; the Jacobian
-/// then follows at the trial once it is accepted), or the trial is a full Newton step from a Jacobian at
-/// the iterate that is expected to converge ([`FRESH_STEP_PREDICTION`]; it is then
-/// evaluated as a chord trial that ends the run). A chord trial that [`ends_the_run`]
-/// predicts to converge is evaluated by [`NonlinearSystem::final_residual`] if the system
-/// [prepares one](NonlinearSystem::prepares_final_residual).
+/// then follows at the trial once it is accepted), or the trial is a full Newton step
+/// from a Jacobian at the iterate that is expected to converge
+/// ([`FRESH_STEP_PREDICTION`]; it is then evaluated as a chord trial that ends the run).
+/// A chord trial that [`ends_the_run`] predicts to converge is evaluated by
+/// [`NonlinearSystem::final_residual`] if the system [prepares
+/// one](NonlinearSystem::prepares_final_residual). A run stops early where the system
+/// says its solution is [beyond reach](NonlinearSystem::beyond_reach).
 ///
 /// # Errors
-/// [`SolveError::NotConverged`] with the residual norm and iteration count, or
+/// [`SolveError::NotConverged`] with the residual norm and iteration count (and
+/// [`StopReason::BeyondActuationLimits`] for a run stopped beyond reach), or
 /// [`SolveError::NonFinite`] if F cannot be evaluated at the start.
 ///
 /// # Panics

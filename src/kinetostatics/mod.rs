@@ -130,12 +130,14 @@ pub struct Solver {
     /// collapses before the pair crawls across (BENCHMARKS.md "Heavy solves").
     pub one_sided_kinks: bool,
     /// Whether a square IK (the 6-DoF designs) stops as soon as its solution is certainly
-    /// beyond the actuation limits ([`StopReason::BeyondActuationLimits`](crate::error::StopReason::BeyondActuationLimits)): once an
-    /// iteration reduced ‖F‖ tenfold, when some q_i plus its Newton step lies beyond
-    /// its limit by more than [`BEYOND_LIMITS_MARGIN`] × the step's largest |δq_j|
-    /// (the rest of the way, which shrinks tenfold or more per iteration from there).
-    /// For callers that reject such solutions anyway (the workspace sweep ends its rays
-    /// there either way); off by default.
+    /// beyond the actuation limits, with
+    /// [`StopReason::BeyondActuationLimits`](crate::error::StopReason::BeyondActuationLimits):
+    /// once an iteration reduced ‖F‖ tenfold, when some q_i plus its Newton step lies
+    /// beyond its limit by more than [`BEYOND_LIMITS_MARGIN`] × the step's largest
+    /// |δq_j| (the rest of the way, which shrinks tenfold or more per iteration from
+    /// there) and the step takes no tendon across its kink. For callers that reject such
+    /// solutions anyway (the workspace sweep ends its rays there either way); off by
+    /// default.
     pub stop_beyond_limits: bool,
     /// The one-sided columns ([`Solver::one_sided_kinks`]) the last FK or square IK used.
     one_sided_columns_used: usize,

@@ -418,8 +418,9 @@ impl NonlinearSystem for ShootingSystem<'_> {
     }
 
     fn beyond_reach(&self, x: &DVector<f64>, step: &DVector<f64>) -> bool {
-        // A run that took one-sided columns finishes: its caller may compare its solution
-        // with a two-sided run's (the sweep's `solve_on_branch`).
+        // A run that took one-sided columns, or whose step takes a tendon across its kink
+        // (where it may take one), finishes: its caller may compare its solution with a
+        // two-sided run's (the sweep's `solve_on_branch`).
         if !self.stop_beyond_limits
             || matches!(self.problem, Problem::Forward { .. })
             || self.one_sided_columns_used.get() > 0
@@ -427,6 +428,10 @@ impl NonlinearSystem for ShootingSystem<'_> {
             return false;
         }
         let head = self.head();
+        let mut tendons = self.model.tendon_unknown_indices().map(|i| head + i);
+        if tendons.any(|j| crosses_kink(x[j], step[j])) {
+            return false;
+        }
         beyond_limits(self.model, &x.as_slice()[..head], &step.as_slice()[..head])
     }
 
@@ -480,8 +485,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
             return None;
         }
         let (z, dz) = (x[j], step[j]);
-        let crosses = if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 };
-        if !crosses || -z / dz >= STEP_LIMIT_MIN_FRACTION {
+        if !crosses_kink(z, dz) || -z / dz >= STEP_LIMIT_MIN_FRACTION {
             return None;
         }
         let (leg, k) = ((j - head) / nu, (j - head) % nu);
@@ -499,6 +503,12 @@ impl NonlinearSystem for ShootingSystem<'_> {
         // The kink is at ζ = 0.
         Some(z)
     }
+}
+
+/// Whether a tendon unknown ζ = `z` moved by `dz` changes sides of its kink (ζ = 0:
+/// taut at ζ ≥ 0, slack below).
+fn crosses_kink(z: f64, dz: f64) -> bool {
+    if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 }
 }
 
 /// Whether the actuation `q` \[m\] moved by its Newton step `dq` ends beyond an
