@@ -86,6 +86,12 @@ pub struct EvaluationConfig {
     /// Optional Newton tolerance ε_b on ‖b‖₂ (SI) of every IK step (default 1e-10).
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// Optional chord contraction of the sweep's Newton runs, in \[0, 1)
+    /// ([`WorkspaceSettings::chord_contraction`]; default 0.1, the library's, so a config
+    /// without it evaluates as before). The default config takes 0.5: about 6 % less work
+    /// per evaluation at Δ = 12 mm; a few cells at folds and Type II singularities move.
+    #[serde(default = "default_chord_contraction")]
+    pub chord_contraction: f64,
 }
 
 /// Default Newton iterations per sweep step of an evaluation.
@@ -97,6 +103,10 @@ fn default_max_iterations() -> usize {
 
 fn default_tolerance() -> f64 {
     1e-10
+}
+
+fn default_chord_contraction() -> f64 {
+    WorkspaceSettings::default().chord_contraction
 }
 
 /// How the terms of the composite combine; r_k = v_k / v_k(reference) (see
@@ -309,6 +319,7 @@ impl EvaluationConfig {
             collisions: CollisionPolicy::Stop,
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
+            chord_contraction: self.chord_contraction,
             ..WorkspaceSettings::default()
         }
     }
@@ -374,7 +385,8 @@ mod tests {
             base_design: "",
             parameters: [Bounds(parameter: Pretension, min: -1.0, max: 2.0)],
             evaluation: Evaluation(step: 0.0, angle_step: 4.0, z_range: (0.1, -0.1),
-                                   orientations: [], max_iterations: 0),
+                                   orientations: [], max_iterations: 0,
+                                   chord_contraction: 1.5),
             objectives: [Weighted(objective: WorkspaceVolume, weight: -1.0),
                          Weighted(objective: WorkspaceVolume, weight: 0.0)],
             budget: Budget(),
@@ -385,7 +397,7 @@ mod tests {
         let err = OptimConfig::from_ron_str(text, Path::new("bad.ron")).unwrap_err();
         assert_eq!(
             err.to_string(),
-            "invalid bad.ron (13 problems):
+            "invalid bad.ron (14 problems):
   - base_design = \"\": expected a design file path
   - parameters[0].min = -1: expected >= 0 N (pretension)
   - evaluation.orientations = []: expected at least one rotation vector
@@ -393,6 +405,7 @@ mod tests {
   - evaluation.angle_step = 4: expected in [1e-4, pi] rad
   - evaluation.z_range = 0.1,-0.1: expected two finite numbers ZMIN <= ZMAX [m]
   - evaluation.max_iterations = 0: expected >= 1
+  - evaluation.chord_contraction = 1.5: expected in [0, 1)
   - objectives[0].weight = -1: expected >= 0
   - objectives[1].objective = WorkspaceVolume: expected each objective at most once
   - objectives = weights [-1.0, 0.0]: expected at least one weight > 0

@@ -23,6 +23,7 @@ fn coarse(orientations: Vec<(f64, f64, f64)>) -> EvaluationConfig {
         orientations,
         max_iterations: 20,
         tolerance: 1e-8,
+        chord_contraction: 0.1,
     }
 }
 

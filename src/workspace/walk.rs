@@ -124,6 +124,7 @@ impl Worker {
         let mut solver = Solver::new(design)?;
         solver.settings.tolerance = settings.tolerance;
         solver.settings.max_iterations = settings.max_iterations;
+        solver.settings.chord_contraction = settings.chord_contraction;
         solver.redundancy = settings.redundancy.clone();
         solver.one_sided_kinks = settings.one_sided_kinks;
         // A step whose solution is certainly beyond the limits ends its ray as the
