@@ -365,8 +365,9 @@ impl Robot {
     /// ({type_i, type_ii, leg: (m,) bool}), min_tension (m,) [N], stable (m,) bool,
     /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
     /// (dicts, as the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the
-    /// Jacobian's taut slopes only (the CLI's `--two-sided-kinks`).
-    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true))]
+    /// Jacobian's taut slopes only (the CLI's `--two-sided-kinks`); `chord_contraction`
+    /// in [0, 1) (default 0.1) as the CLI's `--chord-contraction`.
+    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true, chord_contraction=None))]
     #[allow(clippy::too_many_arguments)]
     fn workspace<'py>(
         &self,
@@ -380,6 +381,7 @@ impl Robot {
         max_iterations: Option<usize>,
         progress: Option<Py<PyAny>>,
         one_sided_kinks: bool,
+        chord_contraction: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = WorkspaceSettings::default();
         let three = |v: Option<&Bound<'py, PyAny>>, name, default: [f64; 3]| match v {
@@ -408,6 +410,7 @@ impl Robot {
             tolerance: tolerance.unwrap_or(d.tolerance),
             max_iterations: max_iterations.unwrap_or(d.max_iterations),
             one_sided_kinks,
+            chord_contraction: chord_contraction.unwrap_or(d.chord_contraction),
             ..d
         };
         crate::workspace::sweep(py, &self.design, &settings, progress)

@@ -251,6 +251,7 @@ class Robot:
         max_iterations: Optional[int] = None,
         progress: Optional[Callable[[int, int], Any]] = None,
         one_sided_kinks: bool = True,
+        chord_contraction: Optional[float] = None,
     ) -> dict[str, Any]:
         """The workspace at the fixed orientation ``rotvec`` [rad] (the library's sweep:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
@@ -266,7 +267,10 @@ class Robot:
         (m,), ``leg_switch`` (m,) bool; ``summary``, ``settings`` (dicts, as the CLI's
         workspace JSON). ``one_sided_kinks=False`` solves every step with the
         Jacobian's taut slopes only (the CLI's ``--two-sided-kinks``: the maps of
-        before, with more Newton Jacobians). Raises ValueError (bad settings),
+        before, with more Newton Jacobians). ``chord_contraction`` in [0, 1) (default
+        0.1): Newton keeps each step's Jacobian while its chord steps contract ‖b‖ by
+        at least this factor (the CLI's ``--chord-contraction``; 0.5 saves work at
+        coarse steps, cells at folds may move). Raises ValueError (bad settings),
         ConvergenceError.
         """
 

@@ -89,6 +89,20 @@ def test_workspace_two_sided_kinks_same_cells_more_jacobians(robot):
     assert 2 * j1 < j2, (j1, j2)
 
 
+def test_workspace_chord_contraction_same_cells_fewer_jacobians(robot):
+    kw = dict(step=0.012, angle_step=0.6, z_range=[-0.036, 0.036], tolerance=1e-8)
+    tight = robot.workspace(**kw)
+    loose = robot.workspace(chord_contraction=0.5, **kw)
+    assert tight["settings"]["chord_contraction"] == 0.1
+    assert loose["settings"]["chord_contraction"] == 0.5
+    np.testing.assert_array_equal(tight["cell"], loose["cell"])
+    assert tight["cell"].shape[0] > 50
+    j1, j2 = (w["summary"]["jacobian_evaluations"] for w in (tight, loose))
+    assert j2 < j1, (j1, j2)
+    with pytest.raises(ValueError, match="chord_contraction"):
+        robot.workspace(chord_contraction=1.0, **kw)
+
+
 def test_workspace_errors(robot):
     with pytest.raises(ValueError, match="step"):
         robot.workspace(step=-1.0)

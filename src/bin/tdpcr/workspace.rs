@@ -47,6 +47,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         },
         redundancy,
         one_sided_kinks: !args.two_sided_kinks,
+        chord_contraction: args.chord_contraction,
         ..defaults
     };
     settings.validate()?;
