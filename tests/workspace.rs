@@ -462,7 +462,7 @@ fn one_sided_kink_columns_keep_the_map_for_fewer_jacobians() {
 /// The design search's sweep of the reference design (Δ = 12 mm, φ = 0.3, ε_b = 1e-8, 20
 /// iterations) with the chord contraction of its default config: the same cells with
 /// the same flags, q within 1e-7 m (2.1e-8 m measured) and at most three fifths of the
-/// Newton Jacobians (917 against 1 844 measured; MODEL.md §6).
+/// Newton Jacobians (917 against 1 844 measured; MODEL.md "Newton with chord steps").
 #[test]
 fn a_looser_chord_contraction_keeps_the_coarse_map_for_fewer_jacobians() {
     let design = reference();

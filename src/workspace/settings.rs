@@ -80,7 +80,7 @@ pub struct WorkspaceSettings {
     /// steps, where the extrapolated Jacobian is further off, 0.5 saves about 6 % of the
     /// work (the design search's evaluation, `tdpcr-optim`'s default config), but the
     /// other iterates can end rays differently at folds and Type II singularities (a
-    /// few cells of the map; MODEL.md §6).
+    /// few cells of the map; MODEL.md "Newton with chord steps").
     ///
     /// [`NewtonSettings::chord_contraction`]: crate::newton::NewtonSettings::chord_contraction
     pub chord_contraction: f64,
