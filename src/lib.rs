@@ -133,6 +133,7 @@ pub mod analysis;
 pub mod boundary;
 #[cfg(feature = "cli")]
 pub mod cli_support;
+mod decimal;
 pub mod design;
 pub mod error;
 pub mod input_range;
