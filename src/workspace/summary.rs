@@ -26,20 +26,48 @@ pub struct Stats {
 
 impl Stats {
     fn of(values: impl Iterator<Item = f64>) -> Self {
-        let (mut n, mut sum, mut min, mut max) = (0usize, 0.0, f64::INFINITY, f64::NEG_INFINITY);
-        for x in values {
-            n += 1;
-            sum += x;
-            min = min.min(x);
-            max = max.max(x);
+        let mut acc = StatsAcc::default();
+        values.for_each(|x| acc.add(x));
+        acc.stats()
+    }
+}
+
+/// The running count, sum (in order), minimum and maximum behind a [`Stats`].
+#[derive(Debug, Clone, Copy)]
+struct StatsAcc {
+    n: usize,
+    sum: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Default for StatsAcc {
+    fn default() -> Self {
+        Self {
+            n: 0,
+            sum: 0.0,
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
         }
-        if n == 0 {
-            Self::default()
+    }
+}
+
+impl StatsAcc {
+    fn add(&mut self, x: f64) {
+        self.n += 1;
+        self.sum += x;
+        self.min = self.min.min(x);
+        self.max = self.max.max(x);
+    }
+
+    fn stats(&self) -> Stats {
+        if self.n == 0 {
+            Stats::default()
         } else {
-            Self {
-                mean: sum / n as f64,
-                min,
-                max,
+            Stats {
+                mean: self.sum / self.n as f64,
+                min: self.min,
+                max: self.max,
             }
         }
     }
@@ -65,15 +93,37 @@ pub struct RcondStats {
 }
 
 impl RcondStats {
-    fn of<'a>(r: impl Iterator<Item = &'a Rconds> + Clone) -> Self {
-        Self {
-            b_xu: Stats::of(r.clone().map(|r| r.b_xu)),
-            b_qu: Stats::of(r.clone().map(|r| r.b_qu)),
-            b_u: Stats::of(r.clone().map(|r| r.b_u)),
-            j_p: Stats::of(r.clone().map(|r| r.j_p)),
-            j_o: Stats::of(r.clone().map(|r| r.j_o)),
-            c_p: Stats::of(r.clone().map(|r| r.c_p)),
-            c_o: Stats::of(r.map(|r| r.c_o)),
+    fn of<'a>(r: impl Iterator<Item = &'a Rconds>) -> Self {
+        let mut acc = RcondAcc::default();
+        r.for_each(|r| acc.add(r));
+        acc.stats()
+    }
+}
+
+/// The [`StatsAcc`] of each rcond: one pass over a population instead of one per rcond
+/// (the same sums in the same order; the reference design's Δ = 3 mm summary took
+/// 0.12 s over its 378 316 samples in about sixty passes).
+#[derive(Debug, Clone, Copy, Default)]
+struct RcondAcc([StatsAcc; 7]);
+
+impl RcondAcc {
+    fn add(&mut self, r: &Rconds) {
+        let values = [r.b_xu, r.b_qu, r.b_u, r.j_p, r.j_o, r.c_p, r.c_o];
+        for (acc, x) in self.0.iter_mut().zip(values) {
+            acc.add(x);
+        }
+    }
+
+    fn stats(&self) -> RcondStats {
+        let [b_xu, b_qu, b_u, j_p, j_o, c_p, c_o] = self.0.map(|a| a.stats());
+        RcondStats {
+            b_xu,
+            b_qu,
+            b_u,
+            j_p,
+            j_o,
+            c_p,
+            c_o,
         }
     }
 }
@@ -96,21 +146,29 @@ pub struct RcondVariants {
 }
 
 impl RcondVariants {
-    fn of<'a>(points: impl Iterator<Item = &'a PointMetrics> + Clone) -> Self {
-        let no_type_ii = points
-            .clone()
-            .filter(|m| m.stable && !m.singularity.type_ii);
-        let regular = points.clone().filter(|m| {
+    fn of<'a>(points: impl Iterator<Item = &'a PointMetrics>) -> Self {
+        let (mut all, mut no_type_ii, mut regular) = (
+            RcondAcc::default(),
+            RcondAcc::default(),
+            RcondAcc::default(),
+        );
+        for m in points {
             let s = &m.singularity;
-            m.stable && !(s.type_i || s.type_ii || s.leg)
-        });
+            all.add(&m.rcond);
+            if m.stable && !s.type_ii {
+                no_type_ii.add(&m.rcond);
+            }
+            if m.stable && !(s.type_i || s.type_ii || s.leg) {
+                regular.add(&m.rcond);
+            }
+        }
         Self {
-            all: RcondStats::of(points.clone().map(|m| &m.rcond)),
-            all_count: points.count(),
-            without_type_ii: RcondStats::of(no_type_ii.clone().map(|m| &m.rcond)),
-            without_type_ii_count: no_type_ii.count(),
-            regular: RcondStats::of(regular.clone().map(|m| &m.rcond)),
-            regular_count: regular.count(),
+            all: all.stats(),
+            all_count: all.0[0].n,
+            without_type_ii: no_type_ii.stats(),
+            without_type_ii_count: no_type_ii.0[0].n,
+            regular: regular.stats(),
+            regular_count: regular.0[0].n,
         }
     }
 }
