@@ -19,11 +19,23 @@ pub struct WriteError {
 
 /// Writes `bytes` to `path` through `.<name>.<pid>.tmp` in the same directory, synced to
 /// disk, then renamed over `path`; the temporary file is removed on any failure. The one
-/// atomic writer of tdpcr's outputs.
+/// atomic writer of tdpcr's outputs (with [`write_atomically_with`]).
 ///
 /// # Errors
 /// [`WriteError`] with the path and the I/O error.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
+    write_atomically_with(path, |file| file.write_all(bytes))
+}
+
+/// As [`write_atomically`], the content written by `fill` into the temporary file (in
+/// pieces, e.g. while the next piece is being formatted).
+///
+/// # Errors
+/// [`WriteError`] with the path and the I/O error (of `fill` too).
+pub fn write_atomically_with(
+    path: &Path,
+    fill: impl FnOnce(&mut fs::File) -> io::Result<()>,
+) -> Result<(), WriteError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -31,7 +43,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     let tmp: PathBuf = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
         let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
+        fill(&mut f)?;
         f.sync_all()?;
         fs::rename(&tmp, path)
     })();

@@ -3,13 +3,14 @@
 //! rename), so an interrupted run leaves either the complete file or none.
 
 use std::fs;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
 use crate::decimal::{push_display, push_lower_exp};
 use crate::error::Error;
-use crate::output::write_atomically;
+use crate::output::{WriteError, write_atomically, write_atomically_with};
 use crate::workspace::{WorkspaceMap, WorkspacePoint};
 
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
@@ -51,10 +52,44 @@ pub fn csv_header(n_actuators: usize, tendons_per_leg: usize) -> Vec<String> {
 /// the reference design (39 MB) on the 2-core AMD machine with std's formatting:
 /// 0.20–0.24 s on two threads, 0.27–0.45 s on one.
 pub fn points_csv(map: &WorkspaceMap) -> String {
-    let mut out = csv_header(map.n_actuators, map.tendons_per_leg).join(",");
-    out.push('\n');
-    let blocks: Vec<String> = map
-        .points
+    let mut out = csv_header_line(map);
+    let blocks = csv_blocks(&map.points);
+    out.reserve(blocks.iter().map(String::len).sum());
+    for block in blocks {
+        out.push_str(&block);
+    }
+    out
+}
+
+/// Writes [`points_csv`]'s text to `path` atomically, each group of blocks written while
+/// the next is formatted: the reference design's 100 MB took 0.46–0.48 s to format and
+/// then 0.31–0.35 s to write and sync (2 cores, AMD EPYC, 2026-11-27).
+fn write_points_csv(map: &WorkspaceMap, path: &Path) -> Result<(), WriteError> {
+    write_atomically_with(path, |file| {
+        file.write_all(csv_header_line(map).as_bytes())?;
+        let write = |file: &mut fs::File, blocks: &[String]| {
+            blocks.iter().try_for_each(|b| file.write_all(b.as_bytes()))
+        };
+        let mut pending = Vec::new();
+        for group in map.points.chunks(CSV_BLOCK * CSV_GROUP) {
+            let (next, written) = rayon::join(|| csv_blocks(group), || write(file, &pending));
+            written?;
+            pending = next;
+        }
+        write(file, &pending)
+    })
+}
+
+/// The header line of `points.csv` (with its newline).
+fn csv_header_line(map: &WorkspaceMap) -> String {
+    let mut line = csv_header(map.n_actuators, map.tendons_per_leg).join(",");
+    line.push('\n');
+    line
+}
+
+/// The lines of `points`, formatted in parallel blocks of [`CSV_BLOCK`] cells.
+fn csv_blocks(points: &[WorkspacePoint]) -> Vec<String> {
+    points
         .par_chunks(CSV_BLOCK)
         .map(|points| {
             let mut block = String::with_capacity(600 * points.len());
@@ -64,16 +99,14 @@ pub fn points_csv(map: &WorkspaceMap) -> String {
             }
             block
         })
-        .collect();
-    out.reserve(blocks.iter().map(String::len).sum());
-    for block in blocks {
-        out.push_str(&block);
-    }
-    out
+        .collect()
 }
 
 /// Cells per block of [`points_csv`]'s parallel formatting.
 const CSV_BLOCK: usize = 4096;
+
+/// Blocks per group of [`write_points_csv`] (about 10 MB of text).
+const CSV_GROUP: usize = 4;
 
 /// One line of `points.csv` for `p` (with its newline).
 fn write_csv_line(out: &mut String, p: &WorkspacePoint, digits: &mut zmij::Buffer) {
@@ -128,7 +161,7 @@ pub fn write_outputs(map: &WorkspaceMap, dir: &Path) -> Result<Vec<PathBuf>, Err
     create_output_dir(dir)?;
     let mut written = Vec::new();
     let points = dir.join("points.csv");
-    write_atomically(&points, points_csv(map).as_bytes())?;
+    write_points_csv(map, &points)?;
     written.push(points);
     let summary = dir.join("summary.json");
     let json = serde_json::to_string_pretty(&map.summary).expect("plain data serializes");
