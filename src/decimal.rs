@@ -53,10 +53,10 @@ impl<'a> Shortest<'a> {
         let all = buffer.format_finite(x);
         let negative = all.starts_with('-');
         let body = &all[usize::from(negative)..];
-        // The exponent form ends in `e` and a signed exponent of one to three digits (`e-6`,
-        // `e+20`, `e-310`); a fixed one's point is found from
-        // the front (within three bytes for the sweep's numbers). `split_once` (memchr)
-        // cost more than the formatting itself here.
+        // The exponent form ends in `e` and a signed exponent of one to three digits
+        // (`e-6`, `e+20`, `e-310`); a fixed one's point is found from the front (within
+        // three bytes for the sweep's numbers). `split_once` (memchr) cost more than the
+        // formatting itself here.
         let bytes = body.as_bytes();
         let n = bytes.len();
         let e = [3, 4, 5]
