@@ -82,4 +82,29 @@ mod tests {
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
         fs::remove_dir_all(&dir).ok();
     }
+
+    #[test]
+    fn a_file_written_in_pieces_is_whole_or_absent() {
+        let dir = std::env::temp_dir().join(format!("tdpcr-pieces-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("c.txt");
+        write_atomically_with(&path, |f| {
+            ["one ", "two ", "three"]
+                .iter()
+                .try_for_each(|piece| f.write_all(piece.as_bytes()))
+        })
+        .unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "one two three");
+        // A piece that fails: the old file stays, no temporary is left, the error names
+        // the file.
+        let err = write_atomically_with(&path, |f| {
+            f.write_all(b"half")?;
+            Err(io::Error::other("disk full"))
+        })
+        .unwrap_err();
+        assert!(err.to_string().contains("c.txt") && err.to_string().contains("disk full"));
+        assert_eq!(fs::read_to_string(&path).unwrap(), "one two three");
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
+        fs::remove_dir_all(&dir).ok();
+    }
 }
