@@ -92,6 +92,13 @@ pub struct EvaluationConfig {
     /// per evaluation at Δ = 12 mm; a few cells at folds and Type II singularities move.
     #[serde(default = "default_chord_contraction")]
     pub chord_contraction: f64,
+    /// Optional iterations of a sweep step's Newton run before it must have reduced ‖b‖
+    /// tenfold to go on, ≥ 1 ([`WorkspaceSettings::probe_iterations`]; default 15, the
+    /// library's, so a config without it evaluates as before). The default config takes
+    /// 8: steps past a fold end sooner; every drawn candidate of the measurement kept its
+    /// cells.
+    #[serde(default = "default_probe_iterations")]
+    pub probe_iterations: usize,
 }
 
 /// Default Newton iterations per sweep step of an evaluation.
@@ -107,6 +114,10 @@ fn default_tolerance() -> f64 {
 
 fn default_chord_contraction() -> f64 {
     WorkspaceSettings::default().chord_contraction
+}
+
+fn default_probe_iterations() -> usize {
+    WorkspaceSettings::default().probe_iterations
 }
 
 /// How the terms of the composite combine; r_k = v_k / v_k(reference) (see
@@ -320,6 +331,7 @@ impl EvaluationConfig {
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
             chord_contraction: self.chord_contraction,
+            probe_iterations: self.probe_iterations,
             ..WorkspaceSettings::default()
         }
     }
@@ -386,7 +398,7 @@ mod tests {
             parameters: [Bounds(parameter: Pretension, min: -1.0, max: 2.0)],
             evaluation: Evaluation(step: 0.0, angle_step: 4.0, z_range: (0.1, -0.1),
                                    orientations: [], max_iterations: 0,
-                                   chord_contraction: 1.5),
+                                   chord_contraction: 1.5, probe_iterations: 0),
             objectives: [Weighted(objective: WorkspaceVolume, weight: -1.0),
                          Weighted(objective: WorkspaceVolume, weight: 0.0)],
             budget: Budget(),
@@ -397,7 +409,7 @@ mod tests {
         let err = OptimConfig::from_ron_str(text, Path::new("bad.ron")).unwrap_err();
         assert_eq!(
             err.to_string(),
-            "invalid bad.ron (14 problems):
+            "invalid bad.ron (15 problems):
   - base_design = \"\": expected a design file path
   - parameters[0].min = -1: expected >= 0 N (pretension)
   - evaluation.orientations = []: expected at least one rotation vector
@@ -406,6 +418,7 @@ mod tests {
   - evaluation.z_range = 0.1,-0.1: expected two finite numbers ZMIN <= ZMAX [m]
   - evaluation.max_iterations = 0: expected >= 1
   - evaluation.chord_contraction = 1.5: expected in [0, 1)
+  - evaluation.probe_iterations = 0: expected >= 1
   - objectives[0].weight = -1: expected >= 0
   - objectives[1].objective = WorkspaceVolume: expected each objective at most once
   - objectives = weights [-1.0, 0.0]: expected at least one weight > 0

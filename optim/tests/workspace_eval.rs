@@ -24,6 +24,7 @@ fn coarse(orientations: Vec<(f64, f64, f64)>) -> EvaluationConfig {
         max_iterations: 20,
         tolerance: 1e-8,
         chord_contraction: 0.1,
+        probe_iterations: 15,
     }
 }
 

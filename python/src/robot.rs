@@ -366,8 +366,9 @@ impl Robot {
     /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
     /// (dicts, as the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the
     /// Jacobian's taut slopes only (the CLI's `--two-sided-kinks`); `chord_contraction`
-    /// in [0, 1) (default 0.1) as the CLI's `--chord-contraction`.
-    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true, chord_contraction=None))]
+    /// in [0, 1) (default 0.1) as the CLI's `--chord-contraction`; `probe_iterations` ≥ 1
+    /// (default 15) as the CLI's `--probe-iterations`.
+    #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true, chord_contraction=None, probe_iterations=None))]
     #[allow(clippy::too_many_arguments)]
     fn workspace<'py>(
         &self,
@@ -382,6 +383,7 @@ impl Robot {
         progress: Option<Py<PyAny>>,
         one_sided_kinks: bool,
         chord_contraction: Option<f64>,
+        probe_iterations: Option<usize>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let d = WorkspaceSettings::default();
         let three = |v: Option<&Bound<'py, PyAny>>, name, default: [f64; 3]| match v {
@@ -411,6 +413,7 @@ impl Robot {
             max_iterations: max_iterations.unwrap_or(d.max_iterations),
             one_sided_kinks,
             chord_contraction: chord_contraction.unwrap_or(d.chord_contraction),
+            probe_iterations: probe_iterations.unwrap_or(d.probe_iterations),
             ..d
         };
         crate::workspace::sweep(py, &self.design, &settings, progress)

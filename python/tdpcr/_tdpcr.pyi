@@ -252,6 +252,7 @@ class Robot:
         progress: Optional[Callable[[int, int], Any]] = None,
         one_sided_kinks: bool = True,
         chord_contraction: Optional[float] = None,
+        probe_iterations: Optional[int] = None,
     ) -> dict[str, Any]:
         """The workspace at the fixed orientation ``rotvec`` [rad] (the library's sweep:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
@@ -270,8 +271,10 @@ class Robot:
         before, with more Newton Jacobians). ``chord_contraction`` in [0, 1) (default
         0.1): Newton keeps each step's Jacobian while its chord steps contract ‖b‖ by
         at least this factor (the CLI's ``--chord-contraction``; 0.5 saves work at
-        coarse steps, cells at folds may move). Raises ValueError (bad settings),
-        ConvergenceError.
+        coarse steps, cells at folds may move). ``probe_iterations`` ≥ 1 (default 15):
+        Newton iterations a step gets before it must have reduced ‖b‖ tenfold to go on
+        (the CLI's ``--probe-iterations``; fewer end steps past a fold sooner). Raises
+        ValueError (bad settings), ConvergenceError.
         """
 
 class Tdcr:

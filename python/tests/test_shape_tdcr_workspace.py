@@ -103,6 +103,20 @@ def test_workspace_chord_contraction_same_cells_fewer_jacobians(robot):
         robot.workspace(chord_contraction=1.0, **kw)
 
 
+def test_workspace_probe_iterations_same_cells_less_failed_work(robot):
+    kw = dict(step=0.012, angle_step=0.6, z_range=[-0.036, 0.036], tolerance=1e-8,
+              max_iterations=20)
+    late = robot.workspace(**kw)
+    early = robot.workspace(probe_iterations=8, **kw)
+    assert late["settings"]["probe_iterations"] == 15
+    assert early["settings"]["probe_iterations"] == 8
+    np.testing.assert_array_equal(late["cell"], early["cell"])
+    f1, f2 = (w["summary"]["failed_newton_iterations"] for w in (late, early))
+    assert f2 < f1, (f1, f2)
+    with pytest.raises(ValueError, match="probe_iterations"):
+        robot.workspace(probe_iterations=0, **kw)
+
+
 def test_workspace_errors(robot):
     with pytest.raises(ValueError, match="step"):
         robot.workspace(step=-1.0)

@@ -565,6 +565,13 @@ impl Solver {
         self.boundary.shapes()
     }
 
+    /// The work of every Newton run of the last FK or IK call, converged or not (a
+    /// converged call's report carries the same counts; a failed call's error only those
+    /// of the run it reports).
+    pub fn last_call_work(&self) -> &NewtonReport {
+        &self.work
+    }
+
     /// [`Solver::analyze`] of a solution under the wrench it was solved under.
     ///
     /// # Errors

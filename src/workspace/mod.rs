@@ -81,7 +81,8 @@ pub use cells::{Categories, WorkspacePoint};
 pub use ends::{PathEnd, RayEnds};
 pub use metrics::{AnalysisSettings, PointMetrics, Rconds, Singularity, point_metrics};
 pub use settings::{
-    CollisionPolicy, DEFAULT_ANGLE_STEP, DEFAULT_STEP, DEFAULT_Z_RANGE, WorkspaceSettings,
+    CollisionPolicy, DEFAULT_ANGLE_STEP, DEFAULT_PROBE_ITERATIONS, DEFAULT_STEP, DEFAULT_Z_RANGE,
+    WorkspaceSettings,
 };
 pub use summary::{Fractions, RcondStats, RcondVariants, Stats, TableIii, WorkspaceSummary};
 

@@ -57,9 +57,19 @@ pub struct WorkspaceSettings {
     /// across a leg-singularity line (a leg's tendon pair switching, paper Fig. 9) can need
     /// 20–50, and a smaller budget ends rays there (measured on the plane z = 0 of the
     /// reference design: 1277 reachable cells with 15 iterations, 1582 with 60). A step
-    /// first gets 15 iterations and the rest only if those reduced ‖b‖ tenfold (a step past
-    /// a fold, where no solution exists, makes no such progress).
+    /// first gets [`WorkspaceSettings::probe_iterations`] iterations and the rest only if
+    /// those reduced ‖b‖ tenfold (a step past a fold, where no solution exists, makes no
+    /// such progress).
     pub max_iterations: usize,
+    /// Iterations a step's Newton run gets before it must have reduced ‖b‖ tenfold to go
+    /// on (≥ 1; default [`DEFAULT_PROBE_ITERATIONS`] = 15). A step past a fold of the IK
+    /// crawls at its first residual until this check ends it, and its ray then tries
+    /// substeps that crawl as well. Fewer iterations end such steps sooner but would also
+    /// end slow steps that make progress later: at the design search's Δ = 12 mm (max 20
+    /// iterations) 8 keeps every drawn candidate's cells (`tdpcr-optim`'s default
+    /// config); the Δ = 3 mm sweeps keep 15 (BENCHMARKS.md "An earlier progress check for
+    /// the design search's sweeps").
+    pub probe_iterations: usize,
     /// How the IK of the 9-DoF design chooses among its solutions (ignored by the 6-DoF
     /// design): least-norm steps (the default; a q beyond its limits ends the ray) or
     /// steps within the actuation limits ([`Redundancy::WithinLimits`], cargo feature
@@ -100,9 +110,17 @@ impl Default for WorkspaceSettings {
             redundancy: Redundancy::LeastNorm,
             one_sided_kinks: true,
             chord_contraction: NewtonSettings::default().chord_contraction,
+            probe_iterations: DEFAULT_PROBE_ITERATIONS,
         }
     }
 }
+
+/// Default of [`WorkspaceSettings::probe_iterations`]: measured on the plane z = 0 at
+/// Δ = 3 mm, the same 1581 cells and 14 % fewer instructions (φ = 0.1: 8.8 G against
+/// 10.2 G) than a 60-iteration budget for every step. (The check runs inside one Newton
+/// run; a separate probe re-run from the start when it passed repeated its iterations:
+/// −7 % time on the plane z = 0 at φ = 0.035.)
+pub const DEFAULT_PROBE_ITERATIONS: usize = 15;
 
 /// Most planes or rays per plane a sweep accepts (memory and time guard).
 const MAX_COUNT: f64 = 100_000.0;
@@ -149,6 +167,9 @@ impl WorkspaceSettings {
         }
         if !(0.0..1.0).contains(&self.chord_contraction) {
             v.push("chord_contraction", self.chord_contraction, "in [0, 1)");
+        }
+        if self.probe_iterations == 0 {
+            v.push("probe_iterations", 0, ">= 1");
         }
         #[cfg(not(feature = "qp"))]
         if matches!(self.redundancy, Redundancy::WithinLimits(_)) {

@@ -249,6 +249,14 @@ pub struct WorkspaceSummary {
     pub residual_evaluations: usize,
     /// See `residual_evaluations`.
     pub jacobian_evaluations: usize,
+    /// Of the solves that found no solution (a step past a fold or beyond reach, which
+    /// ends its ray or falls back to substeps): Newton iterations, residual and Jacobian
+    /// evaluations, every run of each solve counted.
+    pub failed_newton_iterations: usize,
+    /// See `failed_newton_iterations`.
+    pub failed_residual_evaluations: usize,
+    /// See `failed_newton_iterations`.
+    pub failed_jacobian_evaluations: usize,
     /// Solutions within the limits whose legs were integrated once more to check
     /// collisions at their disks: the rest were cleared by their knots, recorded by the
     /// analysis ([`CollisionChecker::clear_by_knots`](super::collision::CollisionChecker::clear_by_knots)).
@@ -350,6 +358,9 @@ pub(super) fn summarize(
         newton_iterations: work.iterations.load(Ordering::Relaxed),
         residual_evaluations: work.residuals.load(Ordering::Relaxed),
         jacobian_evaluations: work.jacobians.load(Ordering::Relaxed),
+        failed_newton_iterations: work.failed.iterations.load(Ordering::Relaxed),
+        failed_residual_evaluations: work.failed.residuals.load(Ordering::Relaxed),
+        failed_jacobian_evaluations: work.failed.jacobians.load(Ordering::Relaxed),
         collision_integrations: work.collision_integrations.load(Ordering::Relaxed),
         threads: rayon::current_num_threads(),
         wall_time_s: wall,

@@ -1,9 +1,9 @@
 //! Walking a ray (or the path along z): one IK step to the next grid point, warm-started
 //! from the predictor ([`super::predict`]), its Newton run from the Jacobians at the last
 //! solutions extrapolated likewise ([`super::chord_jacobian`]), with a probe of its first
-//! iterations ([`PROBE_ITERATIONS`]), the fallback in [`SUBSTEPS`] substeps, the validity
-//! of each solved point (actuation limits, collisions, stability) and the [`Worker`] that
-//! does it with its own solver and buffers.
+//! iterations ([`WorkspaceSettings::probe_iterations`]), the fallback in [`SUBSTEPS`]
+//! substeps, the validity of each solved point (actuation limits, collisions, stability)
+//! and the [`Worker`] that does it with its own solver and buffers.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -37,9 +37,19 @@ pub(super) struct Work {
     pub(super) jacobians: AtomicUsize,
     /// Residual evaluations of the converged solves.
     pub(super) residuals: AtomicUsize,
+    /// The work of the solves that found no solution.
+    pub(super) failed: FailedWork,
     /// Solutions whose legs were integrated once more to check collisions at the disks
     /// (their knots could not rule one out).
     pub(super) collision_integrations: AtomicUsize,
+}
+
+/// Newton iterations, residual and Jacobian evaluations of the solves without a solution.
+#[derive(Debug, Default)]
+pub(super) struct FailedWork {
+    pub(super) iterations: AtomicUsize,
+    pub(super) residuals: AtomicUsize,
+    pub(super) jacobians: AtomicUsize,
 }
 
 impl Work {
@@ -49,6 +59,16 @@ impl Work {
         self.jacobians
             .fetch_add(r.jacobian_evaluations, Ordering::Relaxed);
         self.residuals
+            .fetch_add(r.residual_evaluations, Ordering::Relaxed);
+    }
+
+    /// Counts the work of a solve that found no solution (all its runs).
+    pub(super) fn add_failed(&self, r: &NewtonReport) {
+        let f = &self.failed;
+        f.iterations.fetch_add(r.iterations, Ordering::Relaxed);
+        f.jacobians
+            .fetch_add(r.jacobian_evaluations, Ordering::Relaxed);
+        f.residuals
             .fetch_add(r.residual_evaluations, Ordering::Relaxed);
     }
 }
@@ -114,6 +134,8 @@ pub(super) struct Worker {
     kinks: KinkStart,
     /// Singularity thresholds of the per-point measures.
     analysis: AnalysisSettings,
+    /// [`WorkspaceSettings::probe_iterations`].
+    probe_iterations: usize,
     /// The message of the last [`End::Failed`].
     pub(super) error: Option<String>,
 }
@@ -142,6 +164,7 @@ impl Worker {
             jacobians,
             kinks,
             analysis: settings.analysis,
+            probe_iterations: settings.probe_iterations,
             error: None,
         })
     }
@@ -209,7 +232,7 @@ impl Worker {
 
     /// One path step to `position`: IK from `start` if given, else from a prediction
     /// extrapolated from the last solutions on the path (`history`, oldest first, at
-    /// equal steps), with the [`PROBE_ITERATIONS`] progress check.
+    /// equal steps), with the [`WorkspaceSettings::probe_iterations`] progress check.
     pub(super) fn step(
         &mut self,
         model: &Model,
@@ -234,7 +257,7 @@ impl Worker {
         // The full budget only if the first iterations made progress.
         let newton = NewtonSettings {
             progress_check: (history.len() > 1).then_some(ProgressCheck {
-                iterations: PROBE_ITERATIONS,
+                iterations: self.probe_iterations,
                 factor: PROBE_PROGRESS,
             }),
             ..self.solver.settings
@@ -287,6 +310,9 @@ impl Worker {
         let zero = Wrench::default();
         let first = self.solver.solve_ik_newton_with(pose, &zero, guess, newton);
         work.solves.fetch_add(1, Ordering::Relaxed);
+        if first.is_err() {
+            work.add_failed(self.solver.last_call_work());
+        }
         let jump = |s: &Solution| max_difference(&s.state.q, &guess.q);
         let suspect = match &first {
             Ok(s) => match history {
@@ -317,6 +343,9 @@ impl Worker {
         self.solver.one_sided_kinks = one_sided;
         self.solver.stop_beyond_limits = stop;
         work.solves.fetch_add(1, Ordering::Relaxed);
+        if second.is_err() {
+            work.add_failed(self.solver.last_call_work());
+        }
         for s in [&first, &second].into_iter().flatten() {
             work.add(&s.report);
         }
@@ -478,15 +507,10 @@ impl Worker {
 }
 
 /// A step's Newton run gets the full [`WorkspaceSettings::max_iterations`] only if its
-/// first `PROBE_ITERATIONS` iterations reduced ‖b‖ by [`PROBE_PROGRESS`]
-/// ([`ProgressCheck`]): steps beyond a fold of the IK (no solution) crawl at their first
-/// residual, while the slow steps across a leg-singularity line make progress first.
-/// Measured on the plane z = 0 at Δ = 3 mm: the same 1581 cells, 14 % fewer instructions
-/// (φ = 0.1: 8.8 G against 10.2 G) than a 60-iteration budget for every step. (The check
-/// runs inside one Newton run; a separate probe re-run from the start when it passed
-/// repeated its iterations: −7 % time on the plane z = 0 at φ = 0.035.)
-const PROBE_ITERATIONS: usize = 15;
-/// See [`PROBE_ITERATIONS`].
+/// first [`WorkspaceSettings::probe_iterations`] iterations reduced ‖b‖ by
+/// [`PROBE_PROGRESS`] ([`ProgressCheck`]): steps beyond a fold of the IK (no solution)
+/// crawl at their first residual, while the slow steps across a leg-singularity line make
+/// progress first.
 const PROBE_PROGRESS: f64 = 10.0;
 
 /// The start of every ray of a plane: the exact IK Jacobian at the plane's origin (in the

@@ -77,6 +77,12 @@ pub struct WorkspaceArgs {
     /// singularities may move.
     #[arg(long, default_value_t = 0.1)]
     pub chord_contraction: f64,
+    /// Newton iterations a step gets before it must have reduced ‖b‖ tenfold to go on,
+    /// ≥ 1 (library: `WorkspaceSettings::probe_iterations`): fewer end steps past a fold
+    /// sooner (the design search's default config takes 8 at Δ = 12 mm), but could end
+    /// slow steps that make progress later.
+    #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_PROBE_ITERATIONS)]
+    pub probe_iterations: usize,
     /// Output directory (created if missing): points.csv, summary.json, slice figures.
     #[arg(long)]
     pub out: PathBuf,

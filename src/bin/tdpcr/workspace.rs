@@ -48,6 +48,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         redundancy,
         one_sided_kinks: !args.two_sided_kinks,
         chord_contraction: args.chord_contraction,
+        probe_iterations: args.probe_iterations,
         ..defaults
     };
     settings.validate()?;
