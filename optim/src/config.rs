@@ -95,8 +95,8 @@ pub struct EvaluationConfig {
     /// Optional iterations of a sweep step's Newton run before it must have reduced ‖b‖
     /// tenfold to go on, ≥ 1 ([`WorkspaceSettings::probe_iterations`]; default 15, the
     /// library's, so a config without it evaluates as before). The default config takes
-    /// 8: steps past a fold end sooner; every drawn candidate of the measurement kept its
-    /// cells.
+    /// 8: ray steps past a fold end sooner; all 26 feasible candidates of 30 drawn kept
+    /// their cells.
     #[serde(default = "default_probe_iterations")]
     pub probe_iterations: usize,
 }

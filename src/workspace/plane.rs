@@ -17,7 +17,7 @@ use super::cells::{WorkspacePoint, representatives};
 use super::ends::{PathEnd, RayEnds};
 use super::metrics::{PointMetrics, tensions};
 use super::predict::PREDICTOR_POINTS;
-use super::settings::WorkspaceSettings;
+use super::settings::{DEFAULT_PROBE_ITERATIONS, WorkspaceSettings};
 use super::walk::{Ray, Sample, Work, Worker};
 
 /// The plane origins reached by the path along z, and why the path stopped.
@@ -83,7 +83,18 @@ pub(super) fn reach_planes(
             let position = Vector3::new(0.0, 0.0, k as f64 * settings.step);
             let from = path.len().saturating_sub(PREDICTOR_POINTS);
             let history: Vec<&RobotState> = path[from..].iter().collect();
-            match w.step(model, &rotation, position, &history, None, work) {
+            match w.step(
+                model,
+                &rotation,
+                position,
+                &history,
+                None,
+                // The path to the planes ends at its first failed step (no substeps): it
+                // keeps at least the default's iterations (a slow step there cost a
+                // drawn candidate of the design search 17 % of its cells with 8).
+                w.probe_iterations.max(DEFAULT_PROBE_ITERATIONS),
+                work,
+            ) {
                 Ok(s) => {
                     if let Some(end) = s.end(settings.collisions) {
                         return (out, end.into(), None);

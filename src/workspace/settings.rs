@@ -61,14 +61,15 @@ pub struct WorkspaceSettings {
     /// those reduced ‖b‖ tenfold (a step past a fold, where no solution exists, makes no
     /// such progress).
     pub max_iterations: usize,
-    /// Iterations a step's Newton run gets before it must have reduced ‖b‖ tenfold to go
-    /// on (≥ 1; default [`DEFAULT_PROBE_ITERATIONS`] = 15). A step past a fold of the IK
-    /// crawls at its first residual until this check ends it, and its ray then tries
-    /// substeps that crawl as well. Fewer iterations end such steps sooner but would also
-    /// end slow steps that make progress later: at the design search's Δ = 12 mm (max 20
-    /// iterations) 8 keeps every drawn candidate's cells (`tdpcr-optim`'s default
-    /// config); the Δ = 3 mm sweeps keep 15 (BENCHMARKS.md "An earlier progress check for
-    /// the design search's sweeps").
+    /// Iterations a ray step's Newton run gets before it must have reduced ‖b‖ tenfold to
+    /// go on (≥ 1; default [`DEFAULT_PROBE_ITERATIONS`] = 15). A step past a fold of the
+    /// IK crawls at its first residual until this check ends it, and its ray then tries
+    /// substeps that crawl as well. Fewer iterations end such steps sooner but could also
+    /// end slow steps that make progress later. The path along z to the planes, which
+    /// ends at its first failed step, keeps at least the default. At the design search's
+    /// Δ = 12 mm (20 iterations) 8 kept the cells of all 26 feasible candidates of 30
+    /// drawn (`tdpcr-optim`'s default config); the Δ = 3 mm sweeps keep 15
+    /// (BENCHMARKS.md "An earlier progress check for the design search's sweeps").
     pub probe_iterations: usize,
     /// How the IK of the 9-DoF design chooses among its solutions (ignored by the 6-DoF
     /// design): least-norm steps (the default; a q beyond its limits ends the ray) or

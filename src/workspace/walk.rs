@@ -135,7 +135,7 @@ pub(super) struct Worker {
     /// Singularity thresholds of the per-point measures.
     analysis: AnalysisSettings,
     /// [`WorkspaceSettings::probe_iterations`].
-    probe_iterations: usize,
+    pub(super) probe_iterations: usize,
     /// The message of the last [`End::Failed`].
     pub(super) error: Option<String>,
 }
@@ -240,6 +240,7 @@ impl Worker {
         position: Vector3<f64>,
         history: &[&RobotState],
         start: Option<&RobotState>,
+        probe: usize,
         work: &Work,
     ) -> Result<Sample, End> {
         let pose = Pose {
@@ -257,7 +258,7 @@ impl Worker {
         // The full budget only if the first iterations made progress.
         let newton = NewtonSettings {
             progress_check: (history.len() > 1).then_some(ProgressCheck {
-                iterations: self.probe_iterations,
+                iterations: probe,
                 factor: PROBE_PROGRESS,
             }),
             ..self.solver.settings
@@ -375,6 +376,7 @@ impl Worker {
     ) -> Result<Sample, End> {
         // The substeps are shorter: their Jacobians are extrapolated among themselves.
         self.jacobians.clear();
+        let probe = self.probe_iterations;
         let start = Vector3::from(last.position);
         let mut path = vec![last.clone()];
         for m in 1..=SUBSTEPS {
@@ -387,6 +389,7 @@ impl Worker {
                 start + (position - start) * t,
                 &history,
                 None,
+                probe,
                 work,
             )?;
             if m == SUBSTEPS {
@@ -461,7 +464,8 @@ impl Worker {
                 .skip((n + 1).saturating_sub(PREDICTOR_POINTS))
                 .collect();
             let start = if i == 1 { first.as_ref() } else { None };
-            let result = match self.step(model, &rotation, position, &history, start, work) {
+            let probe = self.probe_iterations;
+            let result = match self.step(model, &rotation, position, &history, start, probe, work) {
                 Err(End::NotConverged) => {
                     let last = samples.last().unwrap_or(origin);
                     self.step_in_substeps(model, &rotation, &last.state, position, work)

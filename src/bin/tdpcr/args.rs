@@ -77,10 +77,10 @@ pub struct WorkspaceArgs {
     /// singularities may move.
     #[arg(long, default_value_t = 0.1)]
     pub chord_contraction: f64,
-    /// Newton iterations a step gets before it must have reduced ‖b‖ tenfold to go on,
-    /// ≥ 1 (library: `WorkspaceSettings::probe_iterations`): fewer end steps past a fold
-    /// sooner (the design search's default config takes 8 at Δ = 12 mm), but could end
-    /// slow steps that make progress later.
+    /// Newton iterations a ray step gets before it must have reduced ‖b‖ tenfold to go
+    /// on, ≥ 1 (library: `WorkspaceSettings::probe_iterations`): fewer end steps past a
+    /// fold sooner (the design search's default config takes 8 at Δ = 12 mm), but could
+    /// end slow steps that make progress later; the path along z keeps at least 15.
     #[arg(long, default_value_t = tdpcr::workspace::DEFAULT_PROBE_ITERATIONS)]
     pub probe_iterations: usize,
     /// Output directory (created if missing): points.csv, summary.json, slice figures.
