@@ -232,7 +232,10 @@ impl Worker {
 
     /// One path step to `position`: IK from `start` if given, else from a prediction
     /// extrapolated from the last solutions on the path (`history`, oldest first, at
-    /// equal steps), with the [`WorkspaceSettings::probe_iterations`] progress check.
+    /// equal steps), with a progress check after `probe` iterations
+    /// ([`WorkspaceSettings::probe_iterations`] for rays, at least the default for the path
+    /// along z).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
         &mut self,
         model: &Model,
