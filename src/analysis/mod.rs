@@ -218,7 +218,20 @@ pub fn analyze_blocks(
     let compliance = -z.view((ny, n + nq), (6, 6));
     let lambda_c = -z.view((0, n + nq), (ny, 6));
     let (j_ik, lambda_ik) = inverse_jacobian(&mut f.raw, &j_fk, &lambda_fk);
-    let (c, ellipsoids) = f.conditioning(model, y_u, settings, &j_fk, &compliance);
+    let ellipsoids = Ellipsoids {
+        j_p: Ellipsoid::of(&j_fk.rows(0, 3)),
+        j_o: Ellipsoid::of(&j_fk.rows(3, 3)),
+        c_p: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
+        c_o: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
+    };
+    let c = f.conditioning(
+        model,
+        y_u,
+        settings,
+        &j_fk,
+        &compliance,
+        Purpose::Analysis(&ellipsoids),
+    );
     f.recycle();
     Ok(Analysis {
         j_fk,
@@ -263,20 +276,21 @@ pub(crate) fn scaled_block_rconds(model: &Model, blocks: &BoundaryJacobians) -> 
     })
 }
 
-/// [`condition_blocks`] with (`scaled`) or without the unit-scaled rconds of
-/// \[B_x B_u\], \[B_q B_u\] and B_u, a second factorization (without: their entries of
-/// `rcond_scaled` are NaN). For the workspace sweep, which needs them only at the points
-/// that represent its cells and gets them there from the same blocks by
-/// [`scaled_block_rconds`] (the same values, bit for bit).
+/// [`condition_blocks`] (`complete`) or the workspace sweep's part of it: without the
+/// unit-scaled rconds of \[B_x B_u\], \[B_q B_u\] and B_u (a second factorization; their
+/// entries of `rcond_scaled` are NaN), which the sweep needs only at the points that
+/// represent its cells and gets there from the same blocks by [`scaled_block_rconds`]
+/// (the same values, bit for bit), and with only the sign part of the stability
+/// ([`Stability::of_compliance_sign`]). Every other field is the same, bit for bit.
 pub(crate) fn condition_blocks_with(
     model: &Model,
     blocks: &BoundaryJacobians,
     y_u: &[f64],
     settings: &AnalysisSettings,
-    scaled: bool,
+    complete: bool,
 ) -> Result<Conditioning, AnalysisError> {
     let ny = 3 * model.n_leg_unknowns();
-    let f = Factors::new(model, blocks, y_u, ny, scaled)?;
+    let f = Factors::new(model, blocks, y_u, ny, complete)?;
     let (n, nq) = (f.n, f.nq);
     let z = &f.raw.x.w;
     // On the stack (the values of `analyze_blocks`' matrices): no allocation.
@@ -285,7 +299,12 @@ pub(crate) fn condition_blocks_with(
     j_fk.copy_from(&z.view((ny, n), (6, nq)));
     j_fk.neg_mut();
     let compliance = Matrix6::from_fn(|r, c| -z[(ny + r, n + nq + c)]);
-    let conditioning = f.conditioning(model, y_u, settings, &j_fk, &compliance).0;
+    let purpose = if complete {
+        Purpose::Conditioning
+    } else {
+        Purpose::Sweep
+    };
+    let conditioning = f.conditioning(model, y_u, settings, &j_fk, &compliance, purpose);
     f.recycle();
     Ok(conditioning)
 }
@@ -444,8 +463,8 @@ impl Factors {
         }
     }
 
-    /// The rconds, flags, tension and stability from J_FK (6 × n_q) and C (6 × 6), and the
-    /// ellipsoids.
+    /// The rconds, flags, tension and stability from J_FK (6 × n_q) and C (6 × 6), for
+    /// `purpose`.
     fn conditioning<RJ: Dim, CJ: Dim, SJ, RC: Dim, CC: Dim, SC>(
         &self,
         model: &Model,
@@ -453,27 +472,31 @@ impl Factors {
         settings: &AnalysisSettings,
         j_fk: &Matrix<f64, RJ, CJ, SJ>,
         compliance: &Matrix<f64, RC, CC, SC>,
-    ) -> (Conditioning, Ellipsoids)
+        purpose: Purpose,
+    ) -> Conditioning
     where
         SJ: RawStorage<f64, RJ, CJ>,
         SC: RawStorage<f64, RC, CC>,
     {
         let (raw_blocks, scaled_rconds, scaling) =
             (self.raw.rconds, self.scaled_rconds, &self.scaling);
-        let ellipsoids = Ellipsoids {
-            j_p: Ellipsoid::of(&j_fk.rows(0, 3)),
-            j_o: Ellipsoid::of(&j_fk.rows(3, 3)),
-            c_p: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
-            c_o: Ellipsoid::of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
+        let [j_p, j_o, c_p, c_o] = match purpose {
+            Purpose::Analysis(e) => [e.j_p.rcond(), e.j_o.rcond(), e.c_p.rcond(), e.c_o.rcond()],
+            Purpose::Conditioning | Purpose::Sweep => [
+                ellipsoid::rcond_of(&j_fk.rows(0, 3)),
+                ellipsoid::rcond_of(&j_fk.rows(3, 3)),
+                ellipsoid::rcond_of_matrix3(&compliance.fixed_view::<3, 3>(0, 0).into_owned()),
+                ellipsoid::rcond_of_matrix3(&compliance.fixed_view::<3, 3>(3, 3).into_owned()),
+            ],
         };
         let rcond = Rconds {
             b_xu: raw_blocks[0],
             b_qu: raw_blocks[1],
             b_u: raw_blocks[2],
-            j_p: ellipsoids.j_p.rcond(),
-            j_o: ellipsoids.j_o.rcond(),
-            c_p: ellipsoids.c_p.rcond(),
-            c_o: ellipsoids.c_o.rcond(),
+            j_p,
+            j_o,
+            c_p,
+            c_o,
         };
         let mut scaled_j = PoseByActuators::zeros();
         let mut scaled_j = scaled_j.columns_mut(0, self.nq);
@@ -486,8 +509,8 @@ impl Factors {
             b_xu: scaled_rconds[0],
             b_qu: scaled_rconds[1],
             b_u: scaled_rconds[2],
-            j_p: Ellipsoid::of(&scaled_j.rows(0, 3)).rcond(),
-            j_o: Ellipsoid::of(&scaled_j.rows(3, 3)).rcond(),
+            j_p: ellipsoid::rcond_of(&scaled_j.rows(0, 3)),
+            j_o: ellipsoid::rcond_of(&scaled_j.rows(3, 3)),
             // Uniformly scaled blocks: σ_min/σ_max unchanged.
             c_p: rcond.c_p,
             c_o: rcond.c_o,
@@ -497,15 +520,32 @@ impl Factors {
             type_ii: rcond.b_xu < settings.type_ii_threshold,
             leg: rcond.b_u < settings.leg_threshold || slack_pair(model, y_u),
         };
-        let c = Conditioning {
+        Conditioning {
             rcond,
             rcond_scaled,
             singularity,
             min_tension: min_tension(model, y_u),
-            stability: Stability::of_compliance(model, compliance),
-        };
-        (c, ellipsoids)
+            stability: match purpose {
+                Purpose::Sweep => Stability::of_compliance_sign(model, compliance),
+                Purpose::Analysis(_) | Purpose::Conditioning => {
+                    Stability::of_compliance(model, compliance)
+                }
+            },
+        }
     }
+}
+
+/// What [`Factors::conditioning`] computes the measures for.
+#[derive(Debug, Clone, Copy)]
+enum Purpose<'a> {
+    /// [`analyze_blocks`], which has the ellipsoids: the rconds of J_p, J_o, C_p and C_o
+    /// are theirs.
+    Analysis(&'a Ellipsoids),
+    /// [`condition_blocks`]: the same values, the rconds without the axes' directions.
+    Conditioning,
+    /// The workspace sweep: as `Conditioning`, with only the sign part of the stability
+    /// ([`Stability::of_compliance_sign`]).
+    Sweep,
 }
 
 /// A 6 × n_q matrix (J_FK) on the stack: the first n_q ≤ [`MAX_ACTUATORS`] columns.

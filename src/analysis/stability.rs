@@ -50,14 +50,10 @@ impl Stability {
     ) -> Self {
         let c = Matrix6::from_fn(|r, k| compliance[(r, k)]);
         let scaled = scale_congruent(model, &c);
-        let sym = symmetric_part(&scaled);
-        let eigenvalues = sorted(sym.symmetric_eigenvalues().as_slice());
         let c_p = symmetric_part3(&c.fixed_view::<3, 3>(0, 0).into_owned());
         let c_o = symmetric_part3(&c.fixed_view::<3, 3>(3, 3).into_owned());
         let norm = scaled.norm();
         Self {
-            stable: eigenvalues.iter().all(|&l| l > 0.0),
-            eigenvalues,
             eigenvalues_c_p: eigenvalues3(&c_p),
             eigenvalues_c_o: eigenvalues3(&c_o),
             asymmetry: if norm > 0.0 {
@@ -65,6 +61,30 @@ impl Stability {
             } else {
                 0.0
             },
+            ..Self::of_scaled(&scaled)
+        }
+    }
+
+    /// [`Stability::of_compliance`]'s `stable` and `eigenvalues` (bit for bit), the other
+    /// fields NaN: what the workspace sweep records of every point (two 3 × 3 eigenvalue
+    /// problems and a norm fewer).
+    pub(crate) fn of_compliance_sign<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+        model: &Model,
+        compliance: &Matrix<f64, R, C, S>,
+    ) -> Self {
+        let c = Matrix6::from_fn(|r, k| compliance[(r, k)]);
+        Self::of_scaled(&scale_congruent(model, &c))
+    }
+
+    /// The sign part from the scaled compliance D⁻¹ C D⁻¹ (the rest NaN).
+    fn of_scaled(scaled: &Matrix6<f64>) -> Self {
+        let eigenvalues = sorted(symmetric_part(scaled).symmetric_eigenvalues().as_slice());
+        Self {
+            stable: eigenvalues.iter().all(|&l| l > 0.0),
+            eigenvalues,
+            eigenvalues_c_p: [f64::NAN; 3],
+            eigenvalues_c_o: [f64::NAN; 3],
+            asymmetry: f64::NAN,
         }
     }
 }
@@ -115,4 +135,34 @@ pub fn platform_stiffness(model: &Model, blocks: &BoundaryJacobians) -> Option<M
         k -= Matrix6::from_fn(|r, c| update[(r, c)]);
     }
     k.iter().all(|x| x.is_finite()).then_some(k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::design::Tdpcr;
+
+    #[test]
+    fn the_sign_part_is_that_of_the_whole_stability_bit_for_bit() {
+        let design = Tdpcr::from_ron_file(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/designs/lilge2022.ron"
+        ))
+        .unwrap();
+        let model = Model::new(&design);
+        let wave = |k: usize| (k as f64 * 0.61).sin() * 1e-3;
+        // Positive definite, indefinite and asymmetric compliances.
+        for shift in [2e-3, 0.0, -2e-3] {
+            let c = Matrix6::from_fn(|r, k| wave(7 * r + k * k) + if r == k { shift } else { 0.0 });
+            let whole = Stability::of_compliance(&model, &c);
+            let sign = Stability::of_compliance_sign(&model, &c);
+            assert_eq!(sign.stable, whole.stable);
+            assert_eq!(
+                sign.eigenvalues.map(f64::to_bits),
+                whole.eigenvalues.map(f64::to_bits)
+            );
+            assert!(sign.asymmetry.is_nan() && sign.eigenvalues_c_p[0].is_nan());
+            assert!(whole.asymmetry > 0.0);
+        }
+    }
 }

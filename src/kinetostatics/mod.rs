@@ -625,16 +625,16 @@ impl Solver {
         self.condition_with(state, extra, settings, true)
     }
 
-    /// [`Solver::condition`] with (`scaled`) or without the unit-scaled rconds of the three
-    /// block matrices (without: NaN in `rcond_scaled`;
-    /// [`crate::analysis::scaled_block_rconds`] of [`Solver::last_blocks`] gives them):
-    /// the workspace sweep's per-point measures.
+    /// [`Solver::condition`] (`complete`) or the workspace sweep's per-point part of it
+    /// (NaN for the unit-scaled rconds of the three block matrices, which
+    /// [`crate::analysis::scaled_block_rconds`] of [`Solver::last_blocks`] gives, and
+    /// only the sign part of the stability; `analysis::condition_blocks_with`).
     pub(crate) fn condition_with(
         &mut self,
         state: &RobotState,
         extra: &Wrench,
         settings: &AnalysisSettings,
-        scaled: bool,
+        complete: bool,
     ) -> Result<Conditioning, Error> {
         self.analysis_blocks(state, extra, settings)?;
         Ok(condition_blocks_with(
@@ -642,7 +642,7 @@ impl Solver {
             &self.blocks,
             &state.y_u,
             settings,
-            scaled,
+            complete,
         )?)
     }
 

@@ -66,7 +66,8 @@ pub fn point_metrics(
 /// entries of `rcond_scaled` are NaN and the blocks are returned for
 /// [`complete_scaled`], which the sweep calls only for the points that represent cells
 /// (the per-sample statistics use the raw rconds). The completed measures equal
-/// [`point_metrics`]'s, bit for bit.
+/// [`point_metrics`]'s, bit for bit (the analysis behind them computes only what they
+/// hold: no ellipsoid axes, only the sign part of the stability).
 ///
 /// # Errors
 /// As [`point_metrics`].
