@@ -1417,6 +1417,16 @@ pub trait StepRule<S> {
     fn starts_with_chord(&self) -> bool {
         false
     }
+
+    /// Whether the run takes chord steps on the first Jacobian from its first iterate on
+    /// (while each contracts ‖W F‖ by [`NewtonSettings::chord_contraction`]), not only in
+    /// the [`CHORD_TAIL`], and never evaluates a trial point's Jacobian ahead
+    /// ([`LineSearchSystem::speculate_jacobians`]): for a rule whose solution is defined
+    /// by the Jacobian at the start (the least-norm IK's steps along the start's
+    /// least-change directions). `false` by default.
+    fn chord_from_start(&self) -> bool {
+        false
+    }
 }
 
 /// Whether a chord trial from an iterate with residual norm `norm` (test units), after
@@ -1437,11 +1447,12 @@ pub const FINAL_PREDICTION: f64 = 0.1;
 
 /// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
 /// multiple of the tolerance (unless its rule [starts with chord
-/// steps](StepRule::starts_with_chord)). An underdetermined system has a manifold of solutions, and
-/// a chord step lands on it elsewhere than a Newton step, by about ‖δx_prev‖ · ‖δx‖ (the
-/// Jacobian's change times the step): chord steps from the first iterate of a warm 1 mm
-/// IK step of the 9-DoF design moved q by 2.9e-9 m; in this tail, by at most 1.4e-12 m
-/// (`tests/redundant_path.rs`).
+/// steps](StepRule::starts_with_chord) or [takes them from the
+/// start](StepRule::chord_from_start)). An underdetermined system has a manifold of
+/// solutions, and a chord step lands on it elsewhere than a Newton step, by about
+/// ‖δx_prev‖ · ‖δx‖ (the Jacobian's change times the step): chord steps from the first
+/// iterate of a warm 1 mm IK step of the 9-DoF design moved q by 2.9e-9 m; in this tail,
+/// by at most 1.4e-12 m (`tests/redundant_path.rs`, Gauss–Newton least-norm steps).
 pub const CHORD_TAIL: f64 = 1e3;
 
 /// Solves F(x) = 0 from the start in `x` (overwritten with the solution) by Gauss–Newton
@@ -1465,6 +1476,8 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// below: a Jacobian and a Newton step more (BENCHMARKS.md). A rule
 /// that [starts with chord steps](StepRule::starts_with_chord) has the run start so,
 /// with the residual alone at the start, whatever its size.
+/// A rule that takes [chord steps from the start](StepRule::chord_from_start) has them
+/// after its first full step that contracts, whatever ‖F‖.
 ///
 /// If the system [speculates](LineSearchSystem::speculate_jacobians), where the next
 /// iterate will need a Jacobian anyway the full step's trial point is evaluated with its
@@ -1576,6 +1589,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             .step(system, x, &r, &weights, report.iterations)
             .map_err(|reason| settings.not_converged(&report, reason))?;
         let speculate = system.speculate_jacobians()
+            && !rule.chord_from_start()
             && full_steps
             && report.residual_norm.powi(2) >= CHORD_TAIL * settings.tolerance;
         // Whether the system's Jacobian is at the trial point of α = 1 (not at x).
@@ -1628,7 +1642,8 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         // stopped) needs no Jacobian at its last iterate.
         previous_norm = report.residual_norm;
         report.residual_norm = test_norm(&trial, &units);
-        let tail = report.residual_norm <= CHORD_TAIL * settings.tolerance;
+        let tail =
+            rule.chord_from_start() || report.residual_norm <= CHORD_TAIL * settings.tolerance;
         // At x already: the speculated Jacobian of an accepted full step.
         let at_x = speculated && alpha == 1.0;
         if tail && alpha == 1.0 && !at_x && merit(&trial) <= contraction_sq * m0 {

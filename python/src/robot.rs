@@ -161,6 +161,19 @@ impl Robot {
         self.solver.reuse_least_norm_factorization = on;
     }
 
+    /// Whether a least-norm `ik` of the 9-DoF design takes every step with the Jacobian at
+    /// its iterate (Gauss–Newton, the behaviour before 2026-11-28) instead of all with the
+    /// Jacobian at its start (`Solver::least_norm_gauss_newton`; default false).
+    #[getter]
+    fn get_least_norm_gauss_newton(&self) -> bool {
+        self.solver.least_norm_gauss_newton
+    }
+
+    #[setter]
+    fn set_least_norm_gauss_newton(&mut self, on: bool) {
+        self.solver.least_norm_gauss_newton = on;
+    }
+
     /// Forward kinetostatics at actuation `q` [m] under the platform weight plus `wrench`.
     #[pyo3(signature = (q, wrench=None, init=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
     #[allow(clippy::too_many_arguments)]

@@ -93,6 +93,26 @@ def test_least_norm_steps_from_the_last_factorization():
     assert sum(jacobians[2:]) == 0, jacobians
 
 
+def test_least_norm_steps_from_the_start_or_gauss_newton():
+    design = tdpcr.Design.load(DESIGNS / "lilge2022_redundant.ron")
+    runs = {}
+    for gauss_newton in (False, True):
+        robot = tdpcr.Robot(design)
+        assert robot.least_norm_gauss_newton is False
+        robot.least_norm_gauss_newton = gauss_newton
+        assert robot.least_norm_gauss_newton is gauss_newton
+        home = robot.ik(np.zeros(3))
+        target = home.state.position + [0.001, 0.0, 0.0]
+        step = robot.ik(target, home.rotvec, init=home)
+        np.testing.assert_allclose(step.position, target, atol=1e-9)
+        runs[gauss_newton] = step
+    assert runs[False].jacobian_evaluations == 1
+    assert runs[True].jacobian_evaluations == 2
+    # Two solutions of the same pose, a few nanometres apart in q.
+    difference = np.abs(runs[False].q - runs[True].q).max()
+    assert 1e-11 < difference < 1e-7, difference
+
+
 def test_fk_many_equals_the_loop(robot):
     rng = np.random.default_rng(1)
     Q = np.array(Q6) + rng.uniform(-1e-3, 1e-3, size=(5, 6))

@@ -114,12 +114,24 @@ pub struct Solver {
     /// tenfold, then fresh Jacobians) instead of a Jacobian at its start. Off by default:
     /// such a step costs residuals only (a 1 mm step back and forth: 4 residuals, no
     /// Jacobian; BENCHMARKS.md), but the redundant IK has a set of solutions and chord
-    /// steps land on it elsewhere than fresh Gauss–Newton steps: along the 30 steps of
-    /// 1 mm of `tests/redundant_path.rs` q ends up to 1.8e-5 m from the default's (every
-    /// solution converged, the pose held). Going back and forth between two poses, q
-    /// then repeats exactly, where fresh steps creep by ≈ 4e-8 m per cycle. The
-    /// within-limits IK always starts with a fresh Jacobian.
+    /// steps on an earlier Jacobian land on it elsewhere than steps from the start's:
+    /// along the 30 steps of 1 mm of `tests/redundant_path.rs` q ends up to 2.3e-5 m from
+    /// the Gauss–Newton reference (every solution converged, the pose held). Going back
+    /// and forth between two poses, q then repeats exactly, where steps from each start's
+    /// Jacobian creep by ≈ 4e-8 m per cycle. The within-limits IK always starts with a
+    /// fresh Jacobian.
     pub reuse_least_norm_factorization: bool,
+    /// Whether the least-norm IK of the 9-DoF design ([`Redundancy::LeastNorm`]) takes
+    /// every step with the Jacobian at its iterate (Gauss–Newton, chord steps only near
+    /// the solution: the default before 2026-11-28) instead of all with the Jacobian at
+    /// its start. Off by default: from the start's Jacobian the solution is the one point
+    /// of the solution set in the start's least-change directions, whatever the iterates,
+    /// at one Jacobian a run (a warm 1 mm step: 1 Jacobian and 4 residuals instead of 2
+    /// and 2, 0.75× the time); Gauss–Newton steps land elsewhere on the set, 2.9e-9 m in
+    /// q after one 1 mm step and 4.2e-7 m after the 30 of `tests/redundant_path.rs`
+    /// (BENCHMARKS.md). Where a chord step from the start contracts the residual less than
+    /// tenfold, a default run also goes on with Gauss–Newton steps.
+    pub least_norm_gauss_newton: bool,
     /// Whether a Newton step of FK or square IK that takes a tendon across its kink
     /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the
     /// one-sided slope the step takes, anchored at the kink; no integration): taut into
@@ -199,6 +211,7 @@ impl Solver {
             redundancy: Redundancy::LeastNorm,
             reuse_jacobian: true,
             reuse_least_norm_factorization: false,
+            least_norm_gauss_newton: false,
             one_sided_kinks: false,
             stop_beyond_limits: false,
             one_sided_columns_used: 0,

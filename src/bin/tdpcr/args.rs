@@ -106,9 +106,9 @@ pub struct TrajectoryArgs {
     #[command(flatten)]
     pub redundancy: RedundancyArgs,
     /// Least-norm IK steps of the 9-DoF design (--ik, --limits free) start with chord
-    /// steps on the latest least-norm factorization (back and forth about 4× faster per
-    /// step), but q lands elsewhere on the set of solutions than with fresh steps
-    /// (library: `Solver::reuse_least_norm_factorization`).
+    /// steps on the latest least-norm factorization (back and forth about 2× faster per
+    /// step), but q lands elsewhere on the set of solutions than with each start's own
+    /// Jacobian (library: `Solver::reuse_least_norm_factorization`).
     #[arg(long)]
     pub reuse_factorization: bool,
     #[command(flatten)]
