@@ -301,8 +301,9 @@ pub(super) struct LastLeastNorm {
 }
 
 /// IK of the redundant design by least-norm steps from `guess` (q and γ leg unknowns),
-/// chord steps from the start unless `gauss_newton`. With `last` given and `guess` its solution under the same wrench, the run starts with
-/// chord steps on `last`'s factorization (taken while each contracts the residual
+/// chord steps from the start unless `gauss_newton`. With `last` given and `guess` its
+/// solution under the same wrench, the run starts with chord steps on `last`'s
+/// factorization (taken while each contracts the residual
 /// [`NewtonSettings::chord_contraction`]-fold; otherwise the run goes on with a fresh
 /// Jacobian). A converged run is left in `last` for the next.
 ///
