@@ -1423,7 +1423,8 @@ pub trait StepRule<S> {
     /// the [`CHORD_TAIL`], and never evaluates a trial point's Jacobian ahead
     /// ([`LineSearchSystem::speculate_jacobians`]): for a rule whose solution is defined
     /// by the Jacobian at the start (the least-norm IK's steps along the start's
-    /// least-change directions). `false` by default.
+    /// least-change directions). A run that needed a second Jacobian goes on as any
+    /// other. `false` by default.
     fn chord_from_start(&self) -> bool {
         false
     }
@@ -1444,6 +1445,13 @@ pub fn ends_the_run(norm: f64, previous: f64, tolerance: f64) -> bool {
 
 /// See [`ends_the_run`].
 pub const FINAL_PREDICTION: f64 = 0.1;
+
+/// Whether `rule` takes [chord steps from the start](StepRule::chord_from_start) at this
+/// point of a run: only on the Jacobian at the start (a run that needed another goes on
+/// as any other).
+fn from_start<S, R: StepRule<S>>(rule: &R, report: &NewtonReport) -> bool {
+    rule.chord_from_start() && report.jacobian_evaluations <= 1
+}
 
 /// [`solve_with_line_search`] takes chord steps only once ‖F‖ (test units) is at most this
 /// multiple of the tolerance (unless its rule [starts with chord
@@ -1589,7 +1597,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
             .step(system, x, &r, &weights, report.iterations)
             .map_err(|reason| settings.not_converged(&report, reason))?;
         let speculate = system.speculate_jacobians()
-            && !rule.chord_from_start()
+            && !from_start(rule, &report)
             && full_steps
             && report.residual_norm.powi(2) >= CHORD_TAIL * settings.tolerance;
         // Whether the system's Jacobian is at the trial point of α = 1 (not at x).
@@ -1643,7 +1651,7 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
         previous_norm = report.residual_norm;
         report.residual_norm = test_norm(&trial, &units);
         let tail =
-            rule.chord_from_start() || report.residual_norm <= CHORD_TAIL * settings.tolerance;
+            from_start(rule, &report) || report.residual_norm <= CHORD_TAIL * settings.tolerance;
         // At x already: the speculated Jacobian of an accepted full step.
         let at_x = speculated && alpha == 1.0;
         if tail && alpha == 1.0 && !at_x && merit(&trial) <= contraction_sq * m0 {
@@ -2545,6 +2553,8 @@ mod tests {
     struct CircleStep {
         chord: bool,
         chords: usize,
+        /// [`StepRule::chord_from_start`].
+        from_start: bool,
     }
 
     impl StepRule<Circle> for CircleStep {
@@ -2569,6 +2579,9 @@ mod tests {
             self.chords += 1;
             self.chord.then(|| self.step(system, x, r, w, i).unwrap())
         }
+        fn chord_from_start(&self) -> bool {
+            self.from_start
+        }
     }
 
     #[test]
@@ -2579,7 +2592,11 @@ mod tests {
                 jac: [0.0; 2],
                 jacobians: 0,
             };
-            let mut rule = CircleStep { chord, chords: 0 };
+            let mut rule = CircleStep {
+                chord,
+                chords: 0,
+                from_start: false,
+            };
             let mut x = vec![1.0, 0.5];
             let report = solve_with_line_search(&mut system, &mut rule, &mut x, &settings).unwrap();
             assert!((x[0].hypot(x[1]) - 1.0).abs() < 1e-10, "{x:?}");
@@ -2593,6 +2610,36 @@ mod tests {
         let (chord, _) = run(true);
         assert!(chord.jacobian_evaluations < chord.iterations, "{chord:?}");
         assert!(chord.jacobian_evaluations < newton.jacobian_evaluations);
+    }
+
+    #[test]
+    fn chord_steps_from_the_start_keep_to_its_direction_or_hand_over_to_newton() {
+        let settings = NewtonSettings::default();
+        let run = |start: [f64; 2]| {
+            let mut system = Circle {
+                jac: [0.0; 2],
+                jacobians: 0,
+            };
+            let mut rule = CircleStep {
+                chord: true,
+                chords: 0,
+                from_start: true,
+            };
+            let mut x = start.to_vec();
+            let report = solve_with_line_search(&mut system, &mut rule, &mut x, &settings).unwrap();
+            assert!((x[0].hypot(x[1]) - 1.0).abs() <= 1e-10, "{x:?}");
+            (x, report)
+        };
+        // Near the circle: one Jacobian, and x − x₀ along the start's gradient (2, 1)
+        // (Newton steps would turn with the gradient).
+        let (x, report) = run([0.9, 0.45]);
+        assert_eq!(report.jacobian_evaluations, 1, "{report:?}");
+        assert!(report.iterations > 2, "{report:?}");
+        let off = (x[1] - 0.45) * 2.0 - (x[0] - 0.9);
+        assert!(off.abs() < 1e-13, "{off:e} off the start's direction");
+        // Far from it the first chord step contracts less than tenfold: Newton takes over.
+        let (_, report) = run([3.0, 0.1]);
+        assert!(report.jacobian_evaluations > 1, "{report:?}");
     }
 
     /// F(x) = x + 0.1 x² in one unknown, with Newton steps and chord steps of half the
@@ -2813,6 +2860,7 @@ mod tests {
             let mut rule = CircleStep {
                 chord: true,
                 chords: 0,
+                from_start: false,
             };
             let mut x = vec![1.0, 0.5];
             let settings = NewtonSettings::default();
