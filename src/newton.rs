@@ -2630,8 +2630,8 @@ mod tests {
             assert!((x[0].hypot(x[1]) - 1.0).abs() <= 1e-10, "{x:?}");
             (x, report)
         };
-        // Near the circle: one Jacobian, and x − x₀ along the start's gradient (2, 1)
-        // (Newton steps would turn with the gradient).
+        // Near the circle: one Jacobian (Newton steps would take one each, the test
+        // above), and x − x₀ along the start's gradient (2, 1).
         let (x, report) = run([0.9, 0.45]);
         assert_eq!(report.jacobian_evaluations, 1, "{report:?}");
         assert!(report.iterations > 2, "{report:?}");
