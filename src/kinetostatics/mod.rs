@@ -306,7 +306,8 @@ impl Solver {
     /// Inverse kinetostatics: actuation and leg states that hold the platform at `pose`
     /// under its weight plus `extra`. The 6-DoF design solves the square system; the 9-DoF
     /// design resolves its redundancy as [`Solver::redundancy`] says: by default the
-    /// least-norm change of q at every Gauss–Newton step, or with
+    /// least-norm change of q (every step with the start's Jacobian, or Gauss–Newton
+    /// steps with [`Solver::least_norm_gauss_newton`]), or with
     /// [`Redundancy::WithinLimits`] a QP step that keeps q within its limits
     /// ([`crate::redundancy`]). A warm IK of the 9-DoF design from this solver's last
     /// solution (a path step, as a controller or `trajectory` makes; not towards a

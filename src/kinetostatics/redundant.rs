@@ -54,7 +54,9 @@ pub(crate) const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Redundancy {
-    /// Least change of q at every Gauss–Newton step; limits not enforced (the default).
+    /// Least change of q, every step with the start's Jacobian (or Gauss–Newton steps:
+    /// [`Solver::least_norm_gauss_newton`](super::Solver::least_norm_gauss_newton));
+    /// limits not enforced (the default).
     #[default]
     LeastNorm,
     /// Every q within its limits: each step a QP with the limits as bounds (cargo
