@@ -133,7 +133,9 @@ class Robot:
         all with the Jacobian at its start (default False). From the start's Jacobian a
         1 mm step costs one Jacobian instead of two (0.75× the time) and lands on the
         one solution in the start's least-change directions; Gauss–Newton steps land
-        elsewhere on the set of solutions (2.9e-9 m in q after one 1 mm step)."""
+        elsewhere on the set of solutions (2.9e-9 m in q after one 1 mm step). A default
+        run whose line search fails is repeated with one-sided steps across tendon kinks;
+        Gauss–Newton runs are not (they keep the earlier results, failures included)."""
     @least_norm_gauss_newton.setter
     def least_norm_gauss_newton(self, on: bool) -> None: ...
     def fk(

@@ -130,7 +130,10 @@ pub struct Solver {
     /// and 2, 0.75× the time); Gauss–Newton steps land elsewhere on the set, 2.9e-9 m in
     /// q after one 1 mm step and 4.2e-7 m after the 30 of `tests/redundant_path.rs`
     /// (BENCHMARKS.md). Where a chord step from the start contracts the residual less than
-    /// tenfold, a default run also goes on with Gauss–Newton steps.
+    /// tenfold, a default run also goes on with Gauss–Newton steps. A default run whose
+    /// line search fails is repeated with one-sided steps across tendon kinks (MODEL.md
+    /// "Least-norm steps across tendon kinks"); Gauss–Newton runs are not, so they keep
+    /// the results of before, failures included (the workspace sweep's steps).
     pub least_norm_gauss_newton: bool,
     /// Whether a Newton step of FK or square IK that takes a tendon across its kink
     /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the

@@ -14,7 +14,11 @@
 //! contracts the residual less than tenfold (far starts) the run goes on with
 //! Gauss–Newton steps, each with the Jacobian at its iterate, as every step did before
 //! 2026-11-28 ([`super::Solver::least_norm_gauss_newton`]; those runs reuse the
-//! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]).
+//! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]). A
+//! default run whose line search fails is repeated with one-sided steps across tendon
+//! kinks ([`LeastNormStep::across_kinks`]; MODEL.md "Least-norm steps across tendon
+//! kinks": on circles of 10–50 mm radius in 1 mm steps, 4–24 failed steps a circle
+//! before, none after).
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
 //! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
 //! mathematics are in `within_limits.rs`).
@@ -33,11 +37,13 @@ use nalgebra::{DMatrix, DVector};
 
 use super::SOLVER_TENDON_UNKNOWN;
 use super::least_change::{LeastChange, scaled_step_matrix};
-use super::shooting::{restated_residual, row_scales, row_weights};
+use super::shooting::{
+    STEP_LIMIT_MIN_FRACTION, crosses_kink, restated_residual, row_scales, row_weights,
+};
 use super::state::RobotState;
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives, boundary_residual,
-    convert_tendon_unknowns,
+    convert_tendon_unknowns, slack_side_column, taut_tension_column,
 };
 use crate::error::{SolveError, StopReason};
 use crate::model::{Model, Pose};
@@ -100,6 +106,9 @@ pub(super) struct IkSystem<'a> {
     /// (with the legs' knots, where q is within the actuation limits), `Some(false)`
     /// for the next run's start.
     pub(super) prepare: Option<bool>,
+    /// Whether the Jacobian integrates the tension directions of slack tendons too (the
+    /// taut side's columns of [`LeastNormStep`]'s one-sided steps).
+    pub(super) one_sided_kinks: bool,
 }
 
 impl<'a> IkSystem<'a> {
@@ -148,6 +157,8 @@ impl LineSearchSystem for IkSystem<'_> {
 
     fn residual_and_jacobian(&mut self, x: &[f64], r: &mut DVector<f64>) -> Result<(), SolveError> {
         self.evaluated.count_evaluation(true);
+        self.boundary
+            .keep_slack_tension_directions(self.one_sided_kinks);
         let p = self.point(x);
         boundary_derivatives(self.model, self.boundary, &p, r, self.blocks)
     }
@@ -223,6 +234,9 @@ pub(super) struct LeastNormStep {
     /// Whether chord steps are taken only near the solution
     /// ([`super::Solver::least_norm_gauss_newton`]).
     gauss_newton: bool,
+    /// Whether steps across tendon kinks are one-sided and stop at the first crossing
+    /// ([`LeastNormStep::across_kinks`]): the retry of a run whose line search failed.
+    one_sided: bool,
 }
 
 impl LeastNormStep {
@@ -236,16 +250,32 @@ impl LeastNormStep {
             factored: None,
             warm: false,
             gauss_newton,
+            one_sided: false,
         }
     }
 
     /// The step \[δq, δy\] for residual `r` from the factorized system.
     fn solve(&self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
+        self.solve_fixing(r, weights, &[])
+    }
+
+    /// [`LeastNormStep::solve`] with the unknowns `fixed` (index into x, its step) held
+    /// at those steps (they must be the fixed variables of the factorization).
+    fn solve_fixing(
+        &self,
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        fixed: &[(usize, f64)],
+    ) -> Option<Vec<f64>> {
         let (a, y_scale, factor) = self.factored.as_ref()?;
         let b: Vec<f64> = (0..r.len()).map(|i| -r[i] * weights[i]).collect();
         let zeros = vec![0.0; self.p.len()];
-        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &zeros)?;
         let nq = self.p.len() - y_scale.len();
+        let mut values = zeros.clone();
+        for &(j, step) in fixed {
+            values[j] = if j < nq { step } else { step / y_scale[j - nq] };
+        }
+        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &values)?;
         for (j, s) in y_scale.iter().enumerate() {
             z[nq + j] *= s;
         }
@@ -253,21 +283,143 @@ impl LeastNormStep {
     }
 }
 
+impl LeastNormStep {
+    /// Factors the least-norm step of the Jacobian `blocks` (rows weighted by `weights`).
+    fn factor(&mut self, blocks: &BoundaryJacobians, weights: &DVector<f64>) {
+        self.factor_fixing(blocks, weights, &vec![false; self.p.len()]);
+    }
+
+    /// [`LeastNormStep::factor`] with the unknowns marked in `fixed` (n flags) held.
+    fn factor_fixing(
+        &mut self,
+        blocks: &BoundaryJacobians,
+        weights: &DVector<f64>,
+        fixed: &[bool],
+    ) {
+        let nq = self.p.len() - blocks.b_u.ncols();
+        let (a, y_scale) = scaled_step_matrix(blocks, weights, &vec![1.0; nq]);
+        self.factored = LeastChange::factor(&a, &self.p, fixed).map(|factor| (a, y_scale, factor));
+    }
+
+    /// The step from `x` (residual `r`) across tendon kinks (MODEL.md "One-sided
+    /// columns at the kink", as the square solves take them): where the least-norm
+    /// `step` takes tendons at their kinks (crossing ζ = 0 within the first
+    /// [`STEP_LIMIT_MIN_FRACTION`] of it) to the other side, the least-norm step of the
+    /// linear model with those tendons' columns of that side, anchored at the kink
+    /// (b + (c_new − c_old) ζ); a tendon that the new side's column keeps on the old side
+    /// has a step on neither side's model and stays at the kink (ζ = 0: no tension, no
+    /// slack); the step of that model is checked again, until no other tendon at its kink
+    /// crosses. The factorization of the last model is kept for the chord steps. Then the
+    /// step, either one, ends at its first crossing beyond that fraction. Where a model
+    /// is singular (or a taut column was not integrated), the two-sided step.
+    fn across_kinks(
+        &mut self,
+        system: &IkSystem<'_>,
+        x: &[f64],
+        r: &DVector<f64>,
+        weights: &DVector<f64>,
+        mut step: Vec<f64>,
+    ) -> Vec<f64> {
+        let model = system.model;
+        let (nq, nu, nt) = (
+            model.n_actuators(),
+            model.n_leg_unknowns(),
+            model.n_tendons(),
+        );
+        let tendons = (0..3).flat_map(|leg| (0..nt).map(move |k| (leg, k, nq + leg * nu + k)));
+        let at_kink = |j: usize, d: &[f64]| {
+            crosses_kink(x[j], d[j]) && -x[j] / d[j] < STEP_LIMIT_MIN_FRACTION
+        };
+        // Tendons with the other side's column, and of those the ones held at the kink.
+        let mut turned: Vec<(usize, usize, usize)> = Vec::new();
+        let mut held: Vec<(usize, f64)> = Vec::new();
+        let two_sided = self.factored.clone();
+        let point = system.point(x);
+        for _ in 0..=3 * nt {
+            let turning: Vec<_> = tendons
+                .clone()
+                .filter(|&(_, _, j)| at_kink(j, &step) && !turned.iter().any(|t| t.2 == j))
+                .collect();
+            let holding: Vec<_> = turned
+                .iter()
+                .filter(|&&(_, _, j)| {
+                    !crosses_kink(x[j], step[j]) && !held.iter().any(|h| h.0 == j)
+                })
+                .map(|&(_, _, j)| (j, -x[j]))
+                .collect();
+            if turning.is_empty() && holding.is_empty() {
+                break;
+            }
+            turned.extend(turning);
+            held.extend(holding);
+            let mut blocks = system.blocks.clone();
+            let mut anchored = r.clone();
+            let mut column = DVector::zeros(r.len());
+            for &(leg, k, j) in &turned {
+                if x[j] >= 0.0 {
+                    slack_side_column(model, leg, k, &mut column);
+                } else if system.boundary.keeps_slack_tension_directions() {
+                    taut_tension_column(
+                        model,
+                        system.boundary,
+                        &point,
+                        leg,
+                        k,
+                        column.column_mut(0),
+                    );
+                } else {
+                    self.factored = two_sided;
+                    return step;
+                }
+                let mut old = blocks.b_u.column_mut(j - nq);
+                // The kink is at ζ = 0: the old side's slope up to it, the new side's beyond.
+                anchored.axpy(x[j], &column, 1.0);
+                anchored.axpy(-x[j], &old, 1.0);
+                old.copy_from(&column);
+            }
+            let mut fixed = vec![false; self.p.len()];
+            held.iter().for_each(|&(j, _)| fixed[j] = true);
+            self.factor_fixing(&blocks, weights, &fixed);
+            match self.solve_fixing(&anchored, weights, &held) {
+                Some(d) => step = d,
+                None => {
+                    self.factored = two_sided;
+                    return step;
+                }
+            }
+        }
+        let limit = tendons
+            .filter_map(|(_, _, j)| {
+                let (z, dz) = (x[j], step[j]);
+                ((z + dz) * z < 0.0).then_some(-z / dz)
+            })
+            .filter(|&at| at >= STEP_LIMIT_MIN_FRACTION)
+            .fold(1.0, f64::min);
+        if limit < 1.0 {
+            step.iter_mut().for_each(|d| *d *= limit);
+        }
+        step
+    }
+}
+
 impl StepRule<IkSystem<'_>> for LeastNormStep {
     fn step(
         &mut self,
         system: &IkSystem<'_>,
-        _x: &[f64],
+        x: &[f64],
         r: &DVector<f64>,
         weights: &DVector<f64>,
         _iteration: usize,
     ) -> Result<Vec<f64>, StopReason> {
-        let nq = system.model.n_actuators();
-        let (a, y_scale) = scaled_step_matrix(system.blocks, weights, &vec![1.0; nq]);
-        self.factored = LeastChange::factor(&a, &self.p, &vec![false; self.p.len()])
-            .map(|factor| (a, y_scale, factor));
-        self.solve(r, weights)
-            .ok_or(StopReason::SingularLeastNormStep)
+        self.factor(system.blocks, weights);
+        let step = self
+            .solve(r, weights)
+            .ok_or(StopReason::SingularLeastNormStep)?;
+        Ok(if self.one_sided {
+            self.across_kinks(system, x, r, weights, step)
+        } else {
+            step
+        })
     }
 
     /// The last Jacobian's factorized system for the new residual.
@@ -321,7 +473,7 @@ pub(super) fn least_norm_ik(
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let Some(last) = last else {
         let mut rule = LeastNormStep::new(system.model, gauss_newton);
-        return system.solve(&mut rule, settings, &guess.q, &guess.y_u);
+        return solve_or_across_kinks(system, &mut rule, settings, &guess);
     };
     let from_last = last
         .as_ref()
@@ -332,7 +484,7 @@ pub(super) fn least_norm_ik(
     };
     rule.warm = from_last;
     rule.gauss_newton = gauss_newton;
-    let result = system.solve(&mut rule, settings, &guess.q, &guess.y_u);
+    let result = solve_or_across_kinks(system, &mut rule, settings, &guess);
     if let Ok((state, _)) = &result {
         *last = Some(LastLeastNorm {
             rule,
@@ -342,6 +494,49 @@ pub(super) fn least_norm_ik(
         });
     }
     result
+}
+
+/// The least-norm IK by `rule` from `guess`; where its line search fails, once more from
+/// `guess` with one-sided steps across tendon kinks ([`LeastNormStep::across_kinks`]),
+/// its Jacobians with the slack tendons' tension directions (not for Gauss–Newton steps,
+/// which keep the results of before 2026-11-28, failures included: the workspace sweep's
+/// maps). Such a run crawled towards a kink: the step with the slope of the side a
+/// tendon leaves overshoots beyond it, and the line search shortens it until the tendon
+/// just reaches the kink, by ever smaller steps. The retry's report counts the work of
+/// both runs.
+fn solve_or_across_kinks(
+    system: &mut IkSystem<'_>,
+    rule: &mut LeastNormStep,
+    settings: &NewtonSettings,
+    guess: &RobotState,
+) -> Result<(RobotState, NewtonReport), SolveError> {
+    let first = system.solve(rule, settings, &guess.q, &guess.y_u);
+    let Err(
+        e @ SolveError::NotConverged {
+            reason: StopReason::LineSearchFailed,
+            ..
+        },
+    ) = &first
+    else {
+        return first;
+    };
+    if rule.gauss_newton {
+        return first;
+    }
+    let failed = NewtonReport::of_failed_run(e, &system.evaluated);
+    rule.warm = false;
+    rule.one_sided = true;
+    system.one_sided_kinks = true;
+    let retry = system.solve(rule, settings, &guess.q, &guess.y_u);
+    system.one_sided_kinks = false;
+    rule.one_sided = false;
+    match retry {
+        Ok((state, mut report)) => {
+            report.add_work(&failed);
+            Ok((state, report))
+        }
+        Err(_) => first,
+    }
 }
 
 #[cfg(test)]

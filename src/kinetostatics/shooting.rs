@@ -37,7 +37,7 @@ pub(super) enum Problem<'a> {
 }
 
 /// Tendon crossings earlier than this fraction of a Newton step do not limit it.
-const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
+pub(super) const STEP_LIMIT_MIN_FRACTION: f64 = 0.05;
 
 /// How many times the largest |δq_j| of the Newton step an IK's q plus that step must lie
 /// beyond an actuation limit for [`Solver::stop_beyond_limits`] to stop the run: after an
@@ -507,7 +507,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
 
 /// Whether a tendon unknown ζ = `z` moved by `dz` changes sides of its kink (ζ = 0:
 /// taut at ζ ≥ 0, slack below).
-fn crosses_kink(z: f64, dz: f64) -> bool {
+pub(super) fn crosses_kink(z: f64, dz: f64) -> bool {
     if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 }
 }
 

@@ -61,6 +61,7 @@ pub(super) fn solve_target(
                 evaluated: NewtonReport::none(),
                 speculate: solver.speculate_trials,
                 prepare,
+                one_sided_kinks: false,
             };
             let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {
