@@ -174,6 +174,18 @@ impl Robot {
         self.solver.least_norm_gauss_newton = on;
     }
 
+    /// Whether an `ik` of the 9-DoF design whose line search fails is run once more with
+    /// one-sided steps across tendon kinks (`Solver::retry_across_kinks`; default true).
+    #[getter]
+    fn get_retry_across_kinks(&self) -> bool {
+        self.solver.retry_across_kinks
+    }
+
+    #[setter]
+    fn set_retry_across_kinks(&mut self, on: bool) {
+        self.solver.retry_across_kinks = on;
+    }
+
     /// Forward kinetostatics at actuation `q` [m] under the platform weight plus `wrench`.
     #[pyo3(signature = (q, wrench=None, init=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
     #[allow(clippy::too_many_arguments)]

@@ -133,11 +133,18 @@ class Robot:
         all with the Jacobian at its start (default False). From the start's Jacobian a
         1 mm step costs one Jacobian instead of two (0.75× the time) and lands on the
         one solution in the start's least-change directions; Gauss–Newton steps land
-        elsewhere on the set of solutions (2.9e-9 m in q after one 1 mm step). A default
-        run whose line search fails is repeated with one-sided steps across tendon kinks;
-        Gauss–Newton runs are not (they keep the earlier results, failures included)."""
+        elsewhere on the set of solutions (2.9e-9 m in q after one 1 mm step)."""
     @least_norm_gauss_newton.setter
     def least_norm_gauss_newton(self, on: bool) -> None: ...
+    @property
+    def retry_across_kinks(self) -> bool:
+        """Whether an ``ik`` of the 9-DoF design (least-norm or within the limits) whose
+        line search fails is run once more from its guess with one-sided steps across
+        tendon kinks (default True): warm 1 mm steps around circles failed where a tendon
+        pair passes through both-slack, and converge with it; runs that converge are
+        unchanged. The solution's report counts the work of both runs."""
+    @retry_across_kinks.setter
+    def retry_across_kinks(self, on: bool) -> None: ...
     def fk(
         self,
         q: ArrayLike,

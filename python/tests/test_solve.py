@@ -93,6 +93,31 @@ def test_least_norm_steps_from_the_last_factorization():
     assert sum(jacobians[2:]) == 0, jacobians
 
 
+def test_failed_steps_of_the_9dof_design_are_retried_across_tendon_kinks():
+    # The spiral out to a 10 mm circle of tests/redundant_kinks.rs: its 62nd step failed
+    # where a tendon pair passes through both-slack (least-norm and within the limits).
+    design = tdpcr.Design.load(DESIGNS / "lilge2022_redundant.ron")
+    for limits in ("free", "strict"):
+        failed = {}
+        for retry in (True, False):
+            robot = tdpcr.Robot(design)
+            assert robot.retry_across_kinks is True
+            robot.retry_across_kinks = retry
+            state = robot.ik(np.zeros(3))
+            rotvec = state.rotvec
+            failed[retry] = 0
+            for k in range(1, 64):
+                t = k / 63
+                angle = 2 * np.pi * t
+                target = 0.01 * t * np.array([np.cos(angle), np.sin(angle), 0.0])
+                try:
+                    state = robot.ik(target, rotvec, init=state, limits=limits)
+                except tdpcr.ConvergenceError:
+                    failed[retry] += 1
+        assert failed[True] == 0, limits
+        assert failed[False] > 0, limits
+
+
 def test_least_norm_steps_from_the_start_or_gauss_newton():
     design = tdpcr.Design.load(DESIGNS / "lilge2022_redundant.ron")
     runs = {}

@@ -130,11 +130,16 @@ pub struct Solver {
     /// and 2, 0.75× the time); Gauss–Newton steps land elsewhere on the set, 2.9e-9 m in
     /// q after one 1 mm step and 4.2e-7 m after the 30 of `tests/redundant_path.rs`
     /// (BENCHMARKS.md). Where a chord step from the start contracts the residual less than
-    /// tenfold, a default run also goes on with Gauss–Newton steps. A default run whose
-    /// line search fails is repeated with one-sided steps across tendon kinks (MODEL.md
-    /// "Least-norm steps across tendon kinks"); Gauss–Newton runs are not, so they keep
-    /// the results of before, failures included (the workspace sweep's steps).
+    /// tenfold, a default run also goes on with Gauss–Newton steps.
     pub least_norm_gauss_newton: bool,
+    /// Whether an IK of the 9-DoF design (least-norm or within the limits) whose line
+    /// search fails is run once more from its guess with one-sided steps across tendon
+    /// kinks (MODEL.md "Least-norm steps across tendon kinks"). On by default: warm 1 mm
+    /// steps around circles of 10–50 mm radius failed where a tendon pair passes through
+    /// both-slack (92 of 2 646 least-norm steps, 60 within the limits; none with the
+    /// retry), and runs that converge are unchanged. The workspace sweep turns it off
+    /// (its maps would change by a third; BENCHMARKS.md).
+    pub retry_across_kinks: bool,
     /// Whether a Newton step of FK or square IK that takes a tendon across its kink
     /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the
     /// one-sided slope the step takes, anchored at the kink; no integration): taut into
@@ -215,6 +220,7 @@ impl Solver {
             reuse_jacobian: true,
             reuse_least_norm_factorization: false,
             least_norm_gauss_newton: false,
+            retry_across_kinks: true,
             one_sided_kinks: false,
             stop_beyond_limits: false,
             one_sided_columns_used: 0,

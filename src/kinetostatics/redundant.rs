@@ -15,10 +15,10 @@
 //! Gauss–Newton steps, each with the Jacobian at its iterate, as every step did before
 //! 2026-11-28 ([`super::Solver::least_norm_gauss_newton`]; those runs reuse the
 //! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]). A
-//! default run whose line search fails is repeated with one-sided steps across tendon
-//! kinks ([`LeastNormStep::across_kinks`]; MODEL.md "Least-norm steps across tendon
-//! kinks": on circles of 10–50 mm radius in 1 mm steps, 4–24 failed steps a circle
-//! before, none after).
+//! run of either rule whose line search fails is repeated with one-sided steps across
+//! tendon kinks ([`across_kinks`], [`super::Solver::retry_across_kinks`]; MODEL.md
+//! "Least-norm steps across tendon kinks": on circles of 10–50 mm radius in 1 mm steps,
+//! 2–24 failed steps a circle before, none after).
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
 //! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
 //! mathematics are in `within_limits.rs`).
@@ -107,8 +107,11 @@ pub(super) struct IkSystem<'a> {
     /// for the next run's start.
     pub(super) prepare: Option<bool>,
     /// Whether the Jacobian integrates the tension directions of slack tendons too (the
-    /// taut side's columns of [`LeastNormStep`]'s one-sided steps).
+    /// taut side's columns of the one-sided steps, [`across_kinks`]).
     pub(super) one_sided_kinks: bool,
+    /// Whether a run whose line search fails is run again with one-sided steps
+    /// ([`super::Solver::retry_across_kinks`], [`solve_or_across_kinks`]).
+    pub(super) retry_across_kinks: bool,
 }
 
 impl<'a> IkSystem<'a> {
@@ -235,7 +238,7 @@ pub(super) struct LeastNormStep {
     /// ([`super::Solver::least_norm_gauss_newton`]).
     gauss_newton: bool,
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
-    /// ([`LeastNormStep::across_kinks`]): the retry of a run whose line search failed.
+    /// ([`across_kinks`]): the retry of a run whose line search failed.
     one_sided: bool,
 }
 
@@ -256,150 +259,142 @@ impl LeastNormStep {
 
     /// The step \[δq, δy\] for residual `r` from the factorized system.
     fn solve(&self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
-        self.solve_fixing(r, weights, &[])
-    }
-
-    /// [`LeastNormStep::solve`] with the unknowns `fixed` (index into x, its step) held
-    /// at those steps (they must be the fixed variables of the factorization).
-    fn solve_fixing(
-        &self,
-        r: &DVector<f64>,
-        weights: &DVector<f64>,
-        fixed: &[(usize, f64)],
-    ) -> Option<Vec<f64>> {
         let (a, y_scale, factor) = self.factored.as_ref()?;
         let b: Vec<f64> = (0..r.len()).map(|i| -r[i] * weights[i]).collect();
         let zeros = vec![0.0; self.p.len()];
+        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &zeros)?;
         let nq = self.p.len() - y_scale.len();
-        let mut values = zeros.clone();
-        for &(j, step) in fixed {
-            values[j] = if j < nq { step } else { step / y_scale[j - nq] };
-        }
-        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &values)?;
         for (j, s) in y_scale.iter().enumerate() {
             z[nq + j] *= s;
         }
         Some(z.as_slice().to_vec())
     }
-}
 
-impl LeastNormStep {
     /// Factors the least-norm step of the Jacobian `blocks` (rows weighted by `weights`).
     fn factor(&mut self, blocks: &BoundaryJacobians, weights: &DVector<f64>) {
-        self.factor_fixing(blocks, weights, &vec![false; self.p.len()]);
-    }
-
-    /// [`LeastNormStep::factor`] with the unknowns marked in `fixed` (n flags) held.
-    fn factor_fixing(
-        &mut self,
-        blocks: &BoundaryJacobians,
-        weights: &DVector<f64>,
-        fixed: &[bool],
-    ) {
         let nq = self.p.len() - blocks.b_u.ncols();
         let (a, y_scale) = scaled_step_matrix(blocks, weights, &vec![1.0; nq]);
-        self.factored = LeastChange::factor(&a, &self.p, fixed).map(|factor| (a, y_scale, factor));
+        self.factored = LeastChange::factor(&a, &self.p, &vec![false; self.p.len()])
+            .map(|factor| (a, y_scale, factor));
     }
+}
 
-    /// The step from `x` (residual `r`) across tendon kinks (MODEL.md "One-sided
-    /// columns at the kink", as the square solves take them): where the least-norm
-    /// `step` takes tendons at their kinks (crossing ζ = 0 within the first
-    /// [`STEP_LIMIT_MIN_FRACTION`] of it) to the other side, the least-norm step of the
-    /// linear model with those tendons' columns of that side, anchored at the kink
-    /// (b + (c_new − c_old) ζ); a tendon that the new side's column keeps on the old side
-    /// has a step on neither side's model and stays at the kink (ζ = 0: no tension, no
-    /// slack); the step of that model is checked again, until no other tendon at its kink
-    /// crosses. The factorization of the last model is kept for the chord steps. Then the
-    /// step, either one, ends at its first crossing beyond that fraction. Where a model
-    /// is singular (or a taut column was not integrated), the two-sided step.
-    fn across_kinks(
-        &mut self,
-        system: &IkSystem<'_>,
-        x: &[f64],
-        r: &DVector<f64>,
-        weights: &DVector<f64>,
-        mut step: Vec<f64>,
-    ) -> Vec<f64> {
-        let model = system.model;
-        let (nq, nu, nt) = (
-            model.n_actuators(),
-            model.n_leg_unknowns(),
-            model.n_tendons(),
-        );
-        let tendons = (0..3).flat_map(|leg| (0..nt).map(move |k| (leg, k, nq + leg * nu + k)));
-        let at_kink = |j: usize, d: &[f64]| {
-            crosses_kink(x[j], d[j]) && -x[j] / d[j] < STEP_LIMIT_MIN_FRACTION
-        };
-        // Tendons with the other side's column, and of those the ones held at the kink.
-        let mut turned: Vec<(usize, usize, usize)> = Vec::new();
-        let mut held: Vec<(usize, f64)> = Vec::new();
-        let two_sided = self.factored.clone();
-        let point = system.point(x);
-        for _ in 0..=3 * nt {
-            let turning: Vec<_> = tendons
-                .clone()
-                .filter(|&(_, _, j)| at_kink(j, &step) && !turned.iter().any(|t| t.2 == j))
-                .collect();
-            let holding: Vec<_> = turned
-                .iter()
-                .filter(|&&(_, _, j)| {
-                    !crosses_kink(x[j], step[j]) && !held.iter().any(|h| h.0 == j)
-                })
-                .map(|&(_, _, j)| (j, -x[j]))
-                .collect();
-            if turning.is_empty() && holding.is_empty() {
+/// A step rule that can take one-sided steps across tendon kinks ([`across_kinks`]), for
+/// the retry of a failed run ([`solve_or_across_kinks`]).
+pub(super) trait KinkSteps {
+    /// Sets the rule up for a run from actuation `q` \[m\] with one-sided steps across
+    /// kinks (`on`) or without.
+    fn one_sided(&mut self, on: bool, q: &[f64]);
+}
+
+impl KinkSteps for LeastNormStep {
+    /// The run starts with a Jacobian (not on an earlier run's factorization).
+    fn one_sided(&mut self, on: bool, _q: &[f64]) {
+        self.warm = false;
+        self.one_sided = on;
+    }
+}
+
+/// Makes `step` (from `x`, residual `r`, the Jacobian the system holds) one that crosses
+/// tendon kinks (MODEL.md "Least-norm steps across tendon kinks", after the square
+/// solves' "One-sided columns at the kink"): where it takes tendons at their kinks
+/// (crossing ζ = 0 within the first [`STEP_LIMIT_MIN_FRACTION`] of it) to the other side,
+/// the step of the linear model with those tendons' columns of that side, anchored at
+/// the kink (b + (c_new − c_old) ζ); a tendon that the new side's column keeps on the
+/// old side has a step on neither side's model and is held at the kink (δζ = −ζ: no
+/// tension, no slack; its column zero and b − c_old ζ); the model's step is checked
+/// again, until no further tendon at its kink crosses. `solve` computes a step of the
+/// rule from modified blocks and residual (and keeps what the chord steps reuse). Then
+/// the step, either one, ends at its first crossing beyond that fraction. Returns whether
+/// the step is a one-sided model's: not without a crossing at a kink, nor where `solve`
+/// finds no step or a taut column was not integrated (`step` is then the two-sided
+/// step, shortened as above, and the caller restores what `solve` changed).
+pub(super) fn across_kinks(
+    system: &IkSystem<'_>,
+    x: &[f64],
+    r: &DVector<f64>,
+    step: &mut Vec<f64>,
+    mut solve: impl FnMut(&BoundaryJacobians, &DVector<f64>) -> Option<Vec<f64>>,
+) -> bool {
+    let model = system.model;
+    let (nq, nu, nt) = (
+        model.n_actuators(),
+        model.n_leg_unknowns(),
+        model.n_tendons(),
+    );
+    let tendons = (0..3).flat_map(|leg| (0..nt).map(move |k| (leg, k, nq + leg * nu + k)));
+    let at_kink =
+        |j: usize, d: &[f64]| crosses_kink(x[j], d[j]) && -x[j] / d[j] < STEP_LIMIT_MIN_FRACTION;
+    // The tendons with the other side's column, and of those the ones held at the kink.
+    let mut turned: Vec<(usize, usize, usize)> = Vec::new();
+    let mut held: Vec<usize> = Vec::new();
+    let two_sided = step.clone();
+    let point = system.point(x);
+    let mut one_sided = false;
+    for _ in 0..=3 * nt {
+        let turning: Vec<_> = tendons
+            .clone()
+            .filter(|&(_, _, j)| at_kink(j, step) && !turned.iter().any(|t| t.2 == j))
+            .collect();
+        let holding: Vec<_> = turned
+            .iter()
+            .map(|t| t.2)
+            .filter(|&j| !crosses_kink(x[j], step[j]) && !held.contains(&j))
+            .collect();
+        if turning.is_empty() && holding.is_empty() {
+            break;
+        }
+        turned.extend(turning);
+        held.extend(holding);
+        let mut blocks = system.blocks.clone();
+        let mut anchored = r.clone();
+        let mut column = DVector::zeros(r.len());
+        let mut available = true;
+        for &(leg, k, j) in &turned {
+            let mut old = blocks.b_u.column_mut(j - nq);
+            if held.contains(&j) {
+                // The old side's slope up to the kink, and nothing beyond.
+                anchored.axpy(-x[j], &old, 1.0);
+                old.fill(0.0);
+                continue;
+            }
+            if x[j] >= 0.0 {
+                slack_side_column(model, leg, k, &mut column);
+            } else if system.boundary.keeps_slack_tension_directions() {
+                taut_tension_column(model, system.boundary, &point, leg, k, column.column_mut(0));
+            } else {
+                available = false;
                 break;
             }
-            turned.extend(turning);
-            held.extend(holding);
-            let mut blocks = system.blocks.clone();
-            let mut anchored = r.clone();
-            let mut column = DVector::zeros(r.len());
-            for &(leg, k, j) in &turned {
-                if x[j] >= 0.0 {
-                    slack_side_column(model, leg, k, &mut column);
-                } else if system.boundary.keeps_slack_tension_directions() {
-                    taut_tension_column(
-                        model,
-                        system.boundary,
-                        &point,
-                        leg,
-                        k,
-                        column.column_mut(0),
-                    );
-                } else {
-                    self.factored = two_sided;
-                    return step;
-                }
-                let mut old = blocks.b_u.column_mut(j - nq);
-                // The kink is at ζ = 0: the old side's slope up to it, the new side's beyond.
-                anchored.axpy(x[j], &column, 1.0);
-                anchored.axpy(-x[j], &old, 1.0);
-                old.copy_from(&column);
+            // The kink is at ζ = 0: the old side's slope up to it, the new side's beyond.
+            anchored.axpy(x[j], &column, 1.0);
+            anchored.axpy(-x[j], &old, 1.0);
+            old.copy_from(&column);
+        }
+        match solve(&blocks, &anchored).filter(|_| available) {
+            Some(mut d) => {
+                held.iter().for_each(|&j| d[j] = -x[j]);
+                *step = d;
+                one_sided = true;
             }
-            let mut fixed = vec![false; self.p.len()];
-            held.iter().for_each(|&(j, _)| fixed[j] = true);
-            self.factor_fixing(&blocks, weights, &fixed);
-            match self.solve_fixing(&anchored, weights, &held) {
-                Some(d) => step = d,
-                None => {
-                    self.factored = two_sided;
-                    return step;
-                }
+            None => {
+                *step = two_sided;
+                one_sided = false;
+                break;
             }
         }
-        let limit = tendons
-            .filter_map(|(_, _, j)| {
-                let (z, dz) = (x[j], step[j]);
-                ((z + dz) * z < 0.0).then_some(-z / dz)
-            })
-            .filter(|&at| at >= STEP_LIMIT_MIN_FRACTION)
-            .fold(1.0, f64::min);
-        if limit < 1.0 {
-            step.iter_mut().for_each(|d| *d *= limit);
-        }
-        step
     }
+    let limit = tendons
+        .filter_map(|(_, _, j)| {
+            let (z, dz) = (x[j], step[j]);
+            ((z + dz) * z < 0.0).then_some(-z / dz)
+        })
+        .filter(|&at| at >= STEP_LIMIT_MIN_FRACTION)
+        .fold(1.0, f64::min);
+    if limit < 1.0 {
+        step.iter_mut().for_each(|d| *d *= limit);
+    }
+    one_sided
 }
 
 impl StepRule<IkSystem<'_>> for LeastNormStep {
@@ -415,11 +410,19 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         let step = self
             .solve(r, weights)
             .ok_or(StopReason::SingularLeastNormStep)?;
-        Ok(if self.one_sided {
-            self.across_kinks(system, x, r, weights, step)
-        } else {
-            step
-        })
+        if !self.one_sided {
+            return Ok(step);
+        }
+        let mut step = step;
+        let two_sided = self.factored.clone();
+        let one_sided = across_kinks(system, x, r, &mut step, |blocks, r| {
+            self.factor(blocks, weights);
+            self.solve(r, weights)
+        });
+        if !one_sided {
+            self.factored = two_sided;
+        }
+        Ok(step)
     }
 
     /// The last Jacobian's factorized system for the new residual.
@@ -473,7 +476,7 @@ pub(super) fn least_norm_ik(
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let Some(last) = last else {
         let mut rule = LeastNormStep::new(system.model, gauss_newton);
-        return solve_or_across_kinks(system, &mut rule, settings, &guess);
+        return solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
     };
     let from_last = last
         .as_ref()
@@ -484,7 +487,7 @@ pub(super) fn least_norm_ik(
     };
     rule.warm = from_last;
     rule.gauss_newton = gauss_newton;
-    let result = solve_or_across_kinks(system, &mut rule, settings, &guess);
+    let result = solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
     if let Ok((state, _)) = &result {
         *last = Some(LastLeastNorm {
             rule,
@@ -496,21 +499,27 @@ pub(super) fn least_norm_ik(
     result
 }
 
-/// The least-norm IK by `rule` from `guess`; where its line search fails, once more from
-/// `guess` with one-sided steps across tendon kinks ([`LeastNormStep::across_kinks`]),
-/// its Jacobians with the slack tendons' tension directions (not for Gauss–Newton steps,
-/// which keep the results of before 2026-11-28, failures included: the workspace sweep's
-/// maps). Such a run crawled towards a kink: the step with the slope of the side a
-/// tendon leaves overshoots beyond it, and the line search shortens it until the tendon
-/// just reaches the kink, by ever smaller steps. The retry's report counts the work of
-/// both runs.
-fn solve_or_across_kinks(
+/// Newton by `rule` from q and y_u (γ leg unknowns); where its line search fails, once
+/// more from there with one-sided steps across tendon kinks ([`across_kinks`]; the
+/// Jacobians then integrate the slack tendons' tension directions too), if the system
+/// asks for it ([`super::Solver::retry_across_kinks`]). Such a run crawled towards a
+/// kink: the step with the slope of the side a tendon leaves overshoots beyond it, and
+/// the line search shortens it until the tendon just reaches the kink, by ever smaller
+/// steps. The retry's report
+/// counts the work of both runs; if it fails too, the first run's error.
+pub(super) fn solve_or_across_kinks<R>(
     system: &mut IkSystem<'_>,
-    rule: &mut LeastNormStep,
+    rule: &mut R,
     settings: &NewtonSettings,
-    guess: &RobotState,
-) -> Result<(RobotState, NewtonReport), SolveError> {
-    let first = system.solve(rule, settings, &guess.q, &guess.y_u);
+    q: &[f64],
+    y_u: &[f64],
+) -> Result<(RobotState, NewtonReport), SolveError>
+where
+    R: for<'s> StepRule<IkSystem<'s>> + KinkSteps,
+{
+    // The system's tally before this run (a within-limits run may follow another).
+    let before = system.evaluated;
+    let first = system.solve(rule, settings, q, y_u);
     let Err(
         e @ SolveError::NotConverged {
             reason: StopReason::LineSearchFailed,
@@ -520,16 +529,17 @@ fn solve_or_across_kinks(
     else {
         return first;
     };
-    if rule.gauss_newton {
+    if !system.retry_across_kinks {
         return first;
     }
-    let failed = NewtonReport::of_failed_run(e, &system.evaluated);
-    rule.warm = false;
-    rule.one_sided = true;
+    let mut failed = NewtonReport::of_failed_run(e, &system.evaluated);
+    failed.residual_evaluations -= before.residual_evaluations;
+    failed.jacobian_evaluations -= before.jacobian_evaluations;
+    rule.one_sided(true, q);
     system.one_sided_kinks = true;
-    let retry = system.solve(rule, settings, &guess.q, &guess.y_u);
+    let retry = system.solve(rule, settings, q, y_u);
     system.one_sided_kinks = false;
-    rule.one_sided = false;
+    rule.one_sided(false, q);
     match retry {
         Ok((state, mut report)) => {
             report.add_work(&failed);

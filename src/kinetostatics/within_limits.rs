@@ -45,7 +45,9 @@ use clarabel::solver::{
 use nalgebra::{DMatrix, DVector};
 
 use super::least_change::{FactorCache, scaled_step_matrix};
-use super::redundant::{IkSystem, LEAST_NORM_Y_WEIGHT, Objective};
+use super::redundant::{
+    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, solve_or_across_kinks,
+};
 use super::state::RobotState;
 use crate::error::{SolveError, StopReason};
 use crate::model::Model;
@@ -90,7 +92,7 @@ pub(super) fn within_limits_ik(
         }
     }
     let mut rule = QpStep::new(&limits, None, settings, &guess.q);
-    match system.solve(&mut rule, settings, &guess.q, &guess.y_u) {
+    match solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u) {
         Ok((state, mut report)) => {
             report.add_work(&spent);
             Ok((state, report))
@@ -143,6 +145,9 @@ struct QpStep<'a> {
     /// The scaled step matrix and column scales of the last [`QpStep::step`]'s Jacobian,
     /// which the chord steps reuse (the driver takes them on that Jacobian only).
     matrix: Option<StepMatrix>,
+    /// Whether steps across tendon kinks are one-sided and stop at the first crossing
+    /// ([`across_kinks`]): the retry of a run whose line search failed.
+    one_sided: bool,
 }
 
 impl<'a> QpStep<'a> {
@@ -154,7 +159,20 @@ impl<'a> QpStep<'a> {
         settings: &NewtonSettings,
         q: &[f64],
     ) -> Self {
-        let active = (0..limits.len())
+        Self {
+            limits,
+            reference,
+            max_iterations: settings.max_iterations,
+            active: Self::limits_at(limits, q),
+            cache: FactorCache::default(),
+            matrix: None,
+            one_sided: false,
+        }
+    }
+
+    /// The limits (rows of [`StepQp::g`]) that `q` \[m\] is at or beyond.
+    fn limits_at(limits: &[f64], q: &[f64]) -> Vec<usize> {
+        (0..limits.len())
             .flat_map(|j| {
                 let q_tilde = q[j] / limits[j];
                 (q_tilde >= 1.0)
@@ -162,15 +180,7 @@ impl<'a> QpStep<'a> {
                     .into_iter()
                     .chain((q_tilde <= -1.0).then_some(2 * j + 1))
             })
-            .collect();
-        Self {
-            limits,
-            reference,
-            max_iterations: settings.max_iterations,
-            active,
-            cache: FactorCache::default(),
-            matrix: None,
-        }
+            .collect()
     }
 
     /// The step from `x` with `matrix` (the scaled step matrix and its column scales).
@@ -216,7 +226,21 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         let matrix = scaled_step_matrix(system.blocks, weights, self.limits);
         let step = self.step_with(&matrix, x, r, weights, iteration);
         self.matrix = Some(matrix);
-        step
+        if !self.one_sided {
+            return step;
+        }
+        let mut step = step?;
+        let two_sided = (self.matrix.clone(), self.active.clone());
+        let one_sided = across_kinks(system, x, r, &mut step, |blocks, r| {
+            let matrix = scaled_step_matrix(blocks, weights, self.limits);
+            let step = self.step_with(&matrix, x, r, weights, iteration).ok();
+            self.matrix = Some(matrix);
+            step
+        });
+        if !one_sided {
+            (self.matrix, self.active) = two_sided;
+        }
+        Ok(step)
     }
 
     /// The QP step from `x` with the step matrix of the last [`QpStep::step`] (the
@@ -237,6 +261,16 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         let step = self.step_with(&matrix, x, r, weights, iteration).ok();
         self.matrix = Some(matrix);
         step
+    }
+}
+
+impl KinkSteps for QpStep<'_> {
+    /// A run from `q` as [`QpStep::new`] starts it.
+    fn one_sided(&mut self, on: bool, q: &[f64]) {
+        self.active = Self::limits_at(self.limits, q);
+        self.cache = FactorCache::default();
+        self.matrix = None;
+        self.one_sided = on;
     }
 }
 
