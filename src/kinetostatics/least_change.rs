@@ -91,6 +91,29 @@ impl LeastChange {
         })
     }
 
+    /// The least-norm step of the factored problem without fixed variables and with c = 0,
+    /// into `z` (n): λ = S⁻¹ `v` (m; overwritten with λ) and z = −P⁻¹ Aᵀ λ, with `at`
+    /// (n) for Aᵀ λ. Bit for bit [`LeastChange::solve`] with b = −v, in the caller's
+    /// buffers (the least-norm step rule's solve allocated six vectors, now one: a warm
+    /// 1 mm least-norm step of the 9-DoF design, four solves, 1 075.2 k → 1 059.8 k
+    /// instructions, callgrind). `false` if a value is not finite.
+    pub(super) fn least_norm_step(
+        &self,
+        a: &DMatrix<f64>,
+        p: &[f64],
+        v: &mut DVector<f64>,
+        at: &mut DVector<f64>,
+        z: &mut [f64],
+    ) -> bool {
+        debug_assert!(!self.fixed.contains(&true));
+        self.s.solve_in_place(v.as_mut_slice());
+        a.tr_mul_to(v, at);
+        for ((z, at), p) in z.iter_mut().zip(at.iter()).zip(p) {
+            *z = -(0.0 + at) / p;
+        }
+        z.iter().chain(v.iter()).all(|v| v.is_finite())
+    }
+
     /// z (n) and λ (m) for `a`, `p` (as factored), linear term `c` (n), right-hand side
     /// `b` (m) and `values` (n; read at the fixed variables): stationarity of the free
     /// variables P z + c + Aᵀ λ = 0. `None` if a value is not finite.
@@ -386,6 +409,27 @@ mod tests {
         });
         assert!(same_bits(lambda.iter(), rhs.iter()));
         assert!(same_bits(z.iter(), expected_z.iter()));
+    }
+
+    #[test]
+    fn the_least_norm_step_is_the_solution_bit_for_bit() {
+        let (m, n) = (36, 48);
+        let a = DMatrix::from_fn(m, n, |i, j| {
+            (((i + 3) * (j + 7)) % 41) as f64 * 0.07 - 1.3 + if i == j { 2.0 } else { 0.0 }
+        });
+        let p: Vec<f64> = (0..n).map(|j| if j < 9 { 1.0 } else { 1e-6 }).collect();
+        // Residual-like entries of both signs and scales, W r of the least-norm step.
+        let v: Vec<f64> = (0..m)
+            .map(|i| (i as f64 * 0.61).sin() * 10f64.powi(i as i32 % 7 - 5))
+            .collect();
+        let f = LeastChange::factor(&a, &p, &vec![false; n]).unwrap();
+        let b: Vec<f64> = v.iter().map(|v| -v).collect();
+        let (z, lambda) = f.solve(&a, &p, &vec![0.0; n], &b, &vec![0.0; n]).unwrap();
+        let (mut lambda_step, mut at) = (DVector::from_vec(v), DVector::zeros(n));
+        let mut z_step = vec![0.0; n];
+        assert!(f.least_norm_step(&a, &p, &mut lambda_step, &mut at, &mut z_step));
+        assert!(same_bits(lambda.iter(), lambda_step.iter()));
+        assert!(same_bits(z.iter(), z_step.iter()));
     }
 
     #[test]

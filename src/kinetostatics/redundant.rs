@@ -240,6 +240,9 @@ pub(super) struct LeastNormStep {
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
     /// ([`across_kinks`]): the retry of a run whose line search failed.
     one_sided: bool,
+    /// Buffers of [`LeastNormStep::solve`]: λ (m) and Aᵀ λ (n).
+    lambda: DVector<f64>,
+    at: DVector<f64>,
 }
 
 impl LeastNormStep {
@@ -254,20 +257,25 @@ impl LeastNormStep {
             warm: false,
             gauss_newton,
             one_sided: false,
+            lambda: DVector::zeros(model.n_residuals()),
+            at: DVector::zeros(nq + nu),
         }
     }
 
     /// The step \[δq, δy\] for residual `r` from the factorized system.
-    fn solve(&self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
+    fn solve(&mut self, r: &DVector<f64>, weights: &DVector<f64>) -> Option<Vec<f64>> {
         let (a, y_scale, factor) = self.factored.as_ref()?;
-        let b: Vec<f64> = (0..r.len()).map(|i| -r[i] * weights[i]).collect();
-        let zeros = vec![0.0; self.p.len()];
-        let (mut z, _) = factor.solve(a, &self.p, &zeros, &b, &zeros)?;
-        let nq = self.p.len() - y_scale.len();
-        for (j, s) in y_scale.iter().enumerate() {
-            z[nq + j] *= s;
+        self.lambda.copy_from(r);
+        self.lambda.component_mul_assign(weights);
+        let mut z = vec![0.0; self.p.len()];
+        if !factor.least_norm_step(a, &self.p, &mut self.lambda, &mut self.at, &mut z) {
+            return None;
         }
-        Some(z.as_slice().to_vec())
+        let nq = self.p.len() - y_scale.len();
+        for (z, s) in z[nq..].iter_mut().zip(y_scale) {
+            *z *= s;
+        }
+        Some(z)
     }
 
     /// Factors the least-norm step of the Jacobian `blocks` (rows weighted by `weights`).
