@@ -547,6 +547,8 @@ where
     system.one_sided_kinks = true;
     let retry = system.solve(rule, settings, q, y_u);
     system.one_sided_kinks = false;
+    // As every other redundant Jacobian leaves it (an analysis that follows reads it).
+    system.boundary.keep_slack_tension_directions(false);
     rule.one_sided(false, q);
     match retry {
         Ok((state, mut report)) => {
