@@ -117,6 +117,7 @@ impl LeastChange {
     /// z (n) and λ (m) for `a`, `p` (as factored), linear term `c` (n), right-hand side
     /// `b` (m) and `values` (n; read at the fixed variables): stationarity of the free
     /// variables P z + c + Aᵀ λ = 0. `None` if a value is not finite.
+    #[cfg(any(feature = "qp", test))]
     pub(super) fn solve(
         &self,
         a: &DMatrix<f64>,
