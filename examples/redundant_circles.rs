@@ -1,8 +1,8 @@
 //! Warm IK of the 9-DoF design along circles of the platform: from home, a spiral out to
 //! the circle over one lap, then one lap on it, in steps of about 1 mm, the circle's
 //! plane tilted about x (the platform too); prints the steps that fail and why, the
-//! evaluations and the largest change of q in a step (MODEL.md "Least-norm steps across
-//! tendon kinks"): `redundant_circles [radius mm, default 10] [tilt deg, default 0]
+//! residual evaluations of the converged steps, the largest change of q in a step and
+//! the steps' `solve_time_us` (MODEL.md "Least-norm steps across tendon kinks"): `redundant_circles [radius mm, default 10] [tilt deg, default 0]
 //! [least_norm|least_norm_gauss_newton|within_limits, default least_norm]`.
 use nalgebra::{Rotation3, Vector3};
 use tdpcr::Tdpcr;
@@ -39,6 +39,7 @@ fn main() {
     let steps = (std::f64::consts::TAU * radius / 1e-3).ceil() as usize;
     let mut state = home.clone();
     let (mut failed, mut evaluations, mut largest_dq) = (0, 0, 0.0_f64);
+    let mut times = Vec::new();
     for k in 1..=2 * steps {
         let t = k as f64 / steps as f64;
         let r = radius * t.min(1.0);
@@ -50,6 +51,13 @@ fn main() {
         match solver.solve_ik(&pose, &w, Some(&state)) {
             Ok(s) => {
                 evaluations += s.report.residual_evaluations;
+                times.push(s.solve_time_us);
+                if std::env::var_os("STEPS").is_some() {
+                    eprintln!(
+                        "{k} {} {:.0} {:?}",
+                        s.report.residual_evaluations, s.solve_time_us, s.state.q
+                    );
+                }
                 let dq = s
                     .state
                     .q
@@ -65,8 +73,10 @@ fn main() {
             }
         }
     }
+    times.sort_by(f64::total_cmp);
+    let (median, max) = (times[times.len() / 2], times[times.len() - 1]);
     println!(
-        "radius {:.0} mm, tilt {:.0}°: {failed} of {} steps failed, {evaluations} evaluations, largest |Δq| of a step {:.3} mm",
+        "radius {:.0} mm, tilt {:.0}°: {failed} of {} steps failed, {evaluations} evaluations, largest |Δq| of a step {:.3} mm; solve_time_us median {median:.0}, max {max:.0}",
         radius * 1e3,
         tilt.to_degrees(),
         2 * steps,

@@ -174,16 +174,17 @@ impl Robot {
         self.solver.least_norm_gauss_newton = on;
     }
 
-    /// Whether an `ik` of the 9-DoF design whose line search fails is run once more with
-    /// one-sided steps across tendon kinks (`Solver::retry_across_kinks`; default true).
+    /// Whether an `ik` of the 9-DoF design takes one-sided steps across tendon kinks (the
+    /// least-norm steps from the start, any run whose line search fails once more so;
+    /// `Solver::across_kinks`; default true).
     #[getter]
-    fn get_retry_across_kinks(&self) -> bool {
-        self.solver.retry_across_kinks
+    fn get_across_kinks(&self) -> bool {
+        self.solver.across_kinks
     }
 
     #[setter]
-    fn set_retry_across_kinks(&mut self, on: bool) {
-        self.solver.retry_across_kinks = on;
+    fn set_across_kinks(&mut self, on: bool) {
+        self.solver.across_kinks = on;
     }
 
     /// Forward kinetostatics at actuation `q` [m] under the platform weight plus `wrench`.

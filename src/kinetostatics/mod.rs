@@ -132,14 +132,16 @@ pub struct Solver {
     /// (BENCHMARKS.md). Where a chord step from the start contracts the residual less than
     /// tenfold, a default run also goes on with Gauss–Newton steps.
     pub least_norm_gauss_newton: bool,
-    /// Whether an IK of the 9-DoF design (least-norm or within the limits) whose line
-    /// search fails is run once more from its guess with one-sided steps across tendon
-    /// kinks (MODEL.md "Least-norm steps across tendon kinks"). On by default: warm 1 mm
-    /// steps around circles of 10–50 mm radius failed where a tendon pair passes through
-    /// both-slack (92 of 2 646 least-norm steps, 60 within the limits; none with the
-    /// retry), and runs that converge are unchanged. The workspace sweep turns it off
-    /// (its maps would change by a third; BENCHMARKS.md).
-    pub retry_across_kinks: bool,
+    /// Whether the IK of the 9-DoF design takes one-sided steps across tendon kinks
+    /// (MODEL.md "Least-norm steps across tendon kinks"): the default least-norm steps
+    /// from the first run on, and any run (Gauss–Newton least-norm, within the limits)
+    /// whose line search fails once more so. On by default: warm 1 mm steps around
+    /// circles of 10–50 mm radius failed where a tendon pair passes through both-slack
+    /// (92 of 2 646 least-norm steps, 60 within the limits; none with it), and the
+    /// least-norm steps took 5–9× fewer evaluations; within-limits and Gauss–Newton runs
+    /// that converge are unchanged bit for bit. The workspace sweep turns it off (its
+    /// maps would change by a third; BENCHMARKS.md).
+    pub across_kinks: bool,
     /// Whether a Newton step of FK or square IK that takes a tendon across its kink
     /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the
     /// one-sided slope the step takes, anchored at the kink; no integration): taut into
@@ -220,7 +222,7 @@ impl Solver {
             reuse_jacobian: true,
             reuse_least_norm_factorization: false,
             least_norm_gauss_newton: false,
-            retry_across_kinks: true,
+            across_kinks: true,
             one_sided_kinks: false,
             stop_beyond_limits: false,
             one_sided_columns_used: 0,

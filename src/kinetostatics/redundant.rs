@@ -14,11 +14,12 @@
 //! contracts the residual less than tenfold (far starts) the run goes on with
 //! Gauss–Newton steps, each with the Jacobian at its iterate, as every step did before
 //! 2026-11-28 ([`super::Solver::least_norm_gauss_newton`]; those runs reuse the
-//! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]). A
-//! run of either rule whose line search fails is repeated with one-sided steps across
-//! tendon kinks ([`across_kinks`], [`super::Solver::retry_across_kinks`]; MODEL.md
-//! "Least-norm steps across tendon kinks": on circles of 10–50 mm radius in 1 mm steps,
-//! 2–24 failed steps a circle before, none after).
+//! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]). Steps
+//! across tendon kinks are one-sided ([`across_kinks`], [`super::Solver::across_kinks`];
+//! MODEL.md "Least-norm steps across tendon kinks"): the default least-norm steps from
+//! the start, and any run whose line search fails once more so ([`solve_across_kinks`]).
+//! On circles of 10–50 mm radius in 1 mm steps, 2–24 steps a circle failed before and
+//! none after; the least-norm steps there take 5–9× fewer evaluations.
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
 //! keeps q within its limits (cargo feature `qp`, on by default; the QP step rule and its
 //! mathematics are in `within_limits.rs`).
@@ -107,11 +108,11 @@ pub(super) struct IkSystem<'a> {
     /// for the next run's start.
     pub(super) prepare: Option<bool>,
     /// Whether the Jacobian integrates the tension directions of slack tendons too (the
-    /// taut side's columns of the one-sided steps, [`across_kinks`]).
+    /// taut side's columns of the one-sided steps, [`across_kinks`]; a retry's).
     pub(super) one_sided_kinks: bool,
-    /// Whether a run whose line search fails is run again with one-sided steps
-    /// ([`super::Solver::retry_across_kinks`], [`solve_or_across_kinks`]).
-    pub(super) retry_across_kinks: bool,
+    /// Whether runs take one-sided steps across tendon kinks
+    /// ([`super::Solver::across_kinks`], [`solve_across_kinks`]).
+    pub(super) across_kinks: bool,
 }
 
 impl<'a> IkSystem<'a> {
@@ -238,7 +239,7 @@ pub(super) struct LeastNormStep {
     /// ([`super::Solver::least_norm_gauss_newton`]).
     gauss_newton: bool,
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
-    /// ([`across_kinks`]): the retry of a run whose line search failed.
+    /// ([`across_kinks`]).
     one_sided: bool,
     /// Buffers of [`LeastNormStep::solve`]: λ (m) and Aᵀ λ (n).
     lambda: DVector<f64>,
@@ -287,20 +288,60 @@ impl LeastNormStep {
     }
 }
 
-/// A step rule that can take one-sided steps across tendon kinks ([`across_kinks`]), for
-/// the retry of a failed run ([`solve_or_across_kinks`]).
+/// A step rule that can take one-sided steps across tendon kinks ([`across_kinks`],
+/// [`solve_across_kinks`]).
 pub(super) trait KinkSteps {
-    /// Sets the rule up for a run from actuation `q` \[m\] with one-sided steps across
-    /// kinks (`on`) or without.
-    fn one_sided(&mut self, on: bool, q: &[f64]);
+    /// Whether the rule's first run takes one-sided steps too (not only the retry of a
+    /// failed run). Only where that keeps the results a run would have: a rule whose
+    /// solutions are pinned to earlier ones (the within-limits IK's, to 1e-9 m,
+    /// `tests/redundant_path.rs`) moves them by the one-sided steps (8.4e-7 m there).
+    fn one_sided_first(&self) -> bool;
+    /// Whether the rule's steps are one-sided across kinks.
+    fn set_one_sided(&mut self, on: bool);
+    /// Sets the rule up for another run from actuation `q` \[m\] (the retry of a failed
+    /// run: as a fresh rule would start it).
+    fn restart(&mut self, q: &[f64]);
 }
 
 impl KinkSteps for LeastNormStep {
-    /// The run starts with a Jacobian (not on an earlier run's factorization).
-    fn one_sided(&mut self, on: bool, _q: &[f64]) {
-        self.warm = false;
+    /// The default steps (from the start's Jacobian): their solutions were never pinned,
+    /// and on circles of 10–50 mm radius one-sided steps take 5–7× fewer evaluations;
+    /// Gauss–Newton steps keep their earlier results.
+    fn one_sided_first(&self) -> bool {
+        !self.gauss_newton
+    }
+
+    fn set_one_sided(&mut self, on: bool) {
         self.one_sided = on;
     }
+
+    /// The run starts with a Jacobian (not on an earlier run's factorization).
+    fn restart(&mut self, _q: &[f64]) {
+        self.warm = false;
+    }
+}
+
+/// Whether `step` from `x` takes tendon unknown `j` across its kink within its first
+/// [`STEP_LIMIT_MIN_FRACTION`] (the tendon is at the kink) to a side whose column
+/// [`across_kinks`] can give it: a slack tendon's taut column needs its tension
+/// direction, integrated only where the system keeps the slack tendons' directions.
+fn turns_at_kink(system: &IkSystem<'_>, x: &[f64], step: &[f64], j: usize) -> bool {
+    crosses_kink(x[j], step[j])
+        && -x[j] / step[j] < STEP_LIMIT_MIN_FRACTION
+        && (x[j] >= 0.0 || system.boundary.keeps_slack_tension_directions())
+}
+
+/// Whether [`across_kinks`] would solve a one-sided model for `step` from `x` (some
+/// tendon [turns at its kink](turns_at_kink)): a step rule keeps its two-sided
+/// factorization for the case that the model has no step only then.
+pub(super) fn crosses_at_a_kink(system: &IkSystem<'_>, x: &[f64], step: &[f64]) -> bool {
+    let model = system.model;
+    let (nq, nu, nt) = (
+        model.n_actuators(),
+        model.n_leg_unknowns(),
+        model.n_tendons(),
+    );
+    (0..3).any(|leg| (0..nt).any(|k| turns_at_kink(system, x, step, nq + leg * nu + k)))
 }
 
 /// Makes `step` (from `x`, residual `r`, the Jacobian the system holds) one that crosses
@@ -315,8 +356,9 @@ impl KinkSteps for LeastNormStep {
 /// rule from modified blocks and residual (and keeps what the chord steps reuse). Then
 /// the step, either one, ends at its first crossing beyond that fraction. Returns whether
 /// the step is a one-sided model's: not without a crossing at a kink, nor where `solve`
-/// finds no step or a taut column was not integrated (`step` is then the two-sided
-/// step, shortened as above, and the caller restores what `solve` changed).
+/// finds no step (`step` is then the two-sided step, shortened as above, and the caller
+/// restores what `solve` changed). A slack tendon whose tension direction was not
+/// integrated ([`IkSystem::one_sided_kinks`]) keeps its two-sided column.
 pub(super) fn across_kinks(
     system: &IkSystem<'_>,
     x: &[f64],
@@ -331,15 +373,14 @@ pub(super) fn across_kinks(
         model.n_tendons(),
     );
     let tendons = (0..3).flat_map(|leg| (0..nt).map(move |k| (leg, k, nq + leg * nu + k)));
-    let at_kink =
-        |j: usize, d: &[f64]| crosses_kink(x[j], d[j]) && -x[j] / d[j] < STEP_LIMIT_MIN_FRACTION;
+    let at_kink = |j: usize, d: &[f64]| turns_at_kink(system, x, d, j);
     // The tendons with the other side's column, and of those the ones held at the kink.
     let mut turned: Vec<(usize, usize, usize)> = Vec::new();
     let mut held: Vec<usize> = Vec::new();
-    let two_sided = step.clone();
+    let two_sided = crosses_at_a_kink(system, x, step).then(|| step.clone());
     let point = system.point(x);
     let mut one_sided = false;
-    for _ in 0..=3 * nt {
+    for _ in (0..=3 * nt).take_while(|_| two_sided.is_some()) {
         let turning: Vec<_> = tendons
             .clone()
             .filter(|&(_, _, j)| at_kink(j, step) && !turned.iter().any(|t| t.2 == j))
@@ -357,7 +398,6 @@ pub(super) fn across_kinks(
         let mut blocks = system.blocks.clone();
         let mut anchored = r.clone();
         let mut column = DVector::zeros(r.len());
-        let mut available = true;
         for &(leg, k, j) in &turned {
             let mut old = blocks.b_u.column_mut(j - nq);
             if held.contains(&j) {
@@ -368,25 +408,22 @@ pub(super) fn across_kinks(
             }
             if x[j] >= 0.0 {
                 slack_side_column(model, leg, k, &mut column);
-            } else if system.boundary.keeps_slack_tension_directions() {
-                taut_tension_column(model, system.boundary, &point, leg, k, column.column_mut(0));
             } else {
-                available = false;
-                break;
+                taut_tension_column(model, system.boundary, &point, leg, k, column.column_mut(0));
             }
             // The kink is at ζ = 0: the old side's slope up to it, the new side's beyond.
             anchored.axpy(x[j], &column, 1.0);
             anchored.axpy(-x[j], &old, 1.0);
             old.copy_from(&column);
         }
-        match solve(&blocks, &anchored).filter(|_| available) {
+        match solve(&blocks, &anchored) {
             Some(mut d) => {
                 held.iter().for_each(|&j| d[j] = -x[j]);
                 *step = d;
                 one_sided = true;
             }
             None => {
-                *step = two_sided;
+                step.clone_from(two_sided.as_ref().expect("a crossing at a kink"));
                 one_sided = false;
                 break;
             }
@@ -422,12 +459,12 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
             return Ok(step);
         }
         let mut step = step;
-        let two_sided = self.factored.clone();
+        let two_sided = crosses_at_a_kink(system, x, &step).then(|| self.factored.clone());
         let one_sided = across_kinks(system, x, r, &mut step, |blocks, r| {
             self.factor(blocks, weights);
             self.solve(r, weights)
         });
-        if !one_sided {
+        if let (false, Some(two_sided)) = (one_sided, two_sided) {
             self.factored = two_sided;
         }
         Ok(step)
@@ -484,7 +521,7 @@ pub(super) fn least_norm_ik(
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let Some(last) = last else {
         let mut rule = LeastNormStep::new(system.model, gauss_newton);
-        return solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
+        return solve_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
     };
     let from_last = last
         .as_ref()
@@ -495,7 +532,7 @@ pub(super) fn least_norm_ik(
     };
     rule.warm = from_last;
     rule.gauss_newton = gauss_newton;
-    let result = solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
+    let result = solve_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u);
     if let Ok((state, _)) = &result {
         *last = Some(LastLeastNorm {
             rule,
@@ -507,15 +544,17 @@ pub(super) fn least_norm_ik(
     result
 }
 
-/// Newton by `rule` from q and y_u (γ leg unknowns); where its line search fails, once
-/// more from there with one-sided steps across tendon kinks ([`across_kinks`]; the
-/// Jacobians then integrate the slack tendons' tension directions too), if the system
-/// asks for it ([`super::Solver::retry_across_kinks`]). Such a run crawled towards a
-/// kink: the step with the slope of the side a tendon leaves overshoots beyond it, and
-/// the line search shortens it until the tendon just reaches the kink, by ever smaller
-/// steps. The retry's report
-/// counts the work of both runs; if it fails too, the first run's error.
-pub(super) fn solve_or_across_kinks<R>(
+/// Newton by `rule` from q and y_u (γ leg unknowns), with one-sided steps across tendon
+/// kinks ([`across_kinks`]) if the system asks for them
+/// ([`super::Solver::across_kinks`]): the first run where the rule takes them from the
+/// start ([`KinkSteps::one_sided_first`]), without the slack tendons' tension directions
+/// (a slack tendon that a step makes taut then keeps its two-sided column); where that
+/// run's line search fails, once more with one-sided steps and those directions (every
+/// crossing one-sided), the report counting the work of both runs (if the retry fails
+/// too, the first run's error). Two-sided steps crawl at a kink: the step with the slope of the side a tendon
+/// leaves overshoots beyond it, and the line search shortens it until the tendon just
+/// reaches the kink, by ever smaller steps.
+pub(super) fn solve_across_kinks<R>(
     system: &mut IkSystem<'_>,
     rule: &mut R,
     settings: &NewtonSettings,
@@ -525,37 +564,42 @@ pub(super) fn solve_or_across_kinks<R>(
 where
     R: for<'s> StepRule<IkSystem<'s>> + KinkSteps,
 {
+    if !system.across_kinks {
+        return system.solve(rule, settings, q, y_u);
+    }
     // The system's tally before this run (a within-limits run may follow another).
     let before = system.evaluated;
+    rule.set_one_sided(rule.one_sided_first());
     let first = system.solve(rule, settings, q, y_u);
-    let Err(
-        e @ SolveError::NotConverged {
-            reason: StopReason::LineSearchFailed,
-            ..
-        },
-    ) = &first
-    else {
-        return first;
-    };
-    if !system.retry_across_kinks {
-        return first;
-    }
-    let mut failed = NewtonReport::of_failed_run(e, &system.evaluated);
-    failed.residual_evaluations -= before.residual_evaluations;
-    failed.jacobian_evaluations -= before.jacobian_evaluations;
-    rule.one_sided(true, q);
-    system.one_sided_kinks = true;
-    let retry = system.solve(rule, settings, q, y_u);
-    system.one_sided_kinks = false;
-    // As every other redundant Jacobian leaves it (an analysis that follows reads it).
-    system.boundary.keep_slack_tension_directions(false);
-    rule.one_sided(false, q);
-    match retry {
-        Ok((state, mut report)) => {
-            report.add_work(&failed);
-            Ok((state, report))
+    let retry = match &first {
+        Err(
+            e @ SolveError::NotConverged {
+                reason: StopReason::LineSearchFailed,
+                ..
+            },
+        ) => {
+            let mut failed = NewtonReport::of_failed_run(e, &system.evaluated);
+            failed.residual_evaluations -= before.residual_evaluations;
+            failed.jacobian_evaluations -= before.jacobian_evaluations;
+            rule.restart(q);
+            rule.set_one_sided(true);
+            system.one_sided_kinks = true;
+            let retry = system.solve(rule, settings, q, y_u);
+            system.one_sided_kinks = false;
+            // As every other redundant Jacobian leaves it (an analysis that follows
+            // reads it).
+            system.boundary.keep_slack_tension_directions(false);
+            Some(retry.map(|(state, mut report)| {
+                report.add_work(&failed);
+                (state, report)
+            }))
         }
-        Err(_) => first,
+        _ => None,
+    };
+    rule.set_one_sided(false);
+    match retry {
+        Some(Ok(done)) => Ok(done),
+        _ => first,
     }
 }
 

@@ -62,7 +62,7 @@ pub(super) fn solve_target(
                 speculate: solver.speculate_trials,
                 prepare,
                 one_sided_kinks: false,
-                retry_across_kinks: solver.retry_across_kinks,
+                across_kinks: solver.across_kinks,
             };
             let result = match &solver.redundancy {
                 Redundancy::LeastNorm => {

@@ -37,10 +37,11 @@
 //! 140–144 µs against 151–153 µs before (2026-11-26, sixth session).
 //!
 //! A run whose line search fails is run again with one-sided steps across tendon kinks
-//! (`redundant::across_kinks` with this rule's QP; `Solver::retry_across_kinks`): warm
-//! 1 mm steps around circles of 10–50 mm radius failed 60 times in 2 646 steps where a
-//! tendon pair passes through both-slack, and none with the retry (a step shortened to
-//! its first kink crossing is still within the limits: the box is convex and holds 0).
+//! (`redundant::across_kinks` with this rule's QP; `Solver::across_kinks`; not from the
+//! start, which would move the solutions pinned to earlier ones): warm 1 mm steps around
+//! circles of 10–50 mm radius failed 60 times in 2 646 steps where a tendon pair passes
+//! through both-slack, and none with the retry (a step shortened to its first kink
+//! crossing is still within the limits: the box is convex and holds 0).
 
 use std::cell::RefCell;
 
@@ -52,7 +53,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::least_change::{FactorCache, scaled_step_matrix};
 use super::redundant::{
-    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, solve_or_across_kinks,
+    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, crosses_at_a_kink,
+    solve_across_kinks,
 };
 use super::state::RobotState;
 use crate::error::{SolveError, StopReason};
@@ -98,7 +100,7 @@ pub(super) fn within_limits_ik(
         }
     }
     let mut rule = QpStep::new(&limits, None, settings, &guess.q);
-    match solve_or_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u) {
+    match solve_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u) {
         Ok((state, mut report)) => {
             report.add_work(&spent);
             Ok((state, report))
@@ -152,7 +154,7 @@ struct QpStep<'a> {
     /// which the chord steps reuse (the driver takes them on that Jacobian only).
     matrix: Option<StepMatrix>,
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
-    /// ([`across_kinks`]): the retry of a run whose line search failed.
+    /// ([`across_kinks`]).
     one_sided: bool,
 }
 
@@ -236,14 +238,15 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
             return step;
         }
         let mut step = step?;
-        let two_sided = (self.matrix.clone(), self.active.clone());
+        let two_sided =
+            crosses_at_a_kink(system, x, &step).then(|| (self.matrix.clone(), self.active.clone()));
         let one_sided = across_kinks(system, x, r, &mut step, |blocks, r| {
             let matrix = scaled_step_matrix(blocks, weights, self.limits);
             let step = self.step_with(&matrix, x, r, weights, iteration).ok();
             self.matrix = Some(matrix);
             step
         });
-        if !one_sided {
+        if let (false, Some(two_sided)) = (one_sided, two_sided) {
             (self.matrix, self.active) = two_sided;
         }
         Ok(step)
@@ -271,12 +274,22 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
 }
 
 impl KinkSteps for QpStep<'_> {
+    /// Only in the retry of a failed run: the within-limits solutions are pinned to
+    /// earlier ones where both converge (issue 19: q within 1e-9 m), and one-sided steps
+    /// from the first run moved the path of `tests/redundant_path.rs` by 8.4e-7 m.
+    fn one_sided_first(&self) -> bool {
+        false
+    }
+
+    fn set_one_sided(&mut self, on: bool) {
+        self.one_sided = on;
+    }
+
     /// A run from `q` as [`QpStep::new`] starts it.
-    fn one_sided(&mut self, on: bool, q: &[f64]) {
+    fn restart(&mut self, q: &[f64]) {
         self.active = Self::limits_at(self.limits, q);
         self.cache = FactorCache::default();
         self.matrix = None;
-        self.one_sided = on;
     }
 }
 
