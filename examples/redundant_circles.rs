@@ -2,7 +2,9 @@
 //! the circle over one lap, then one lap on it, in steps of about 1 mm, the circle's
 //! plane tilted about x (the platform too); prints the steps that fail and why, the
 //! residual evaluations of the converged steps, the largest change of q in a step and
-//! the steps' `solve_time_us` (MODEL.md "Least-norm steps across tendon kinks"): `redundant_circles [radius mm, default 10] [tilt deg, default 0]
+//! the steps' `solve_time_us` (MODEL.md "Least-norm steps across tendon kinks"); with
+//! the environment variable `STEPS` set, each converged step's evaluations, time and q
+//! on standard error: `redundant_circles [radius mm, default 10] [tilt deg, default 0]
 //! [least_norm|least_norm_gauss_newton|within_limits, default least_norm]`.
 use nalgebra::{Rotation3, Vector3};
 use tdpcr::Tdpcr;
