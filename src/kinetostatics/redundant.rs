@@ -380,7 +380,9 @@ pub(super) fn across_kinks(
     let two_sided = crosses_at_a_kink(system, x, step).then(|| step.clone());
     let point = system.point(x);
     let mut one_sided = false;
-    for _ in (0..=3 * nt).take_while(|_| two_sided.is_some()) {
+    // At most one round per tendon (each turns or is held once), none without a crossing.
+    let rounds = if two_sided.is_some() { 3 * nt + 1 } else { 0 };
+    for _ in 0..rounds {
         let turning: Vec<_> = tendons
             .clone()
             .filter(|&(_, _, j)| at_kink(j, step) && !turned.iter().any(|t| t.2 == j))
