@@ -135,12 +135,15 @@ pub struct Solver {
     /// Whether the IK of the 9-DoF design takes one-sided steps across tendon kinks
     /// (MODEL.md "Least-norm steps across tendon kinks"): the default least-norm steps
     /// from the first run on, and any run (Gauss–Newton least-norm, within the limits)
-    /// whose line search fails once more so. On by default: warm 1 mm steps around
-    /// circles of 10–50 mm radius failed where a tendon pair passes through both-slack
-    /// (92 of 2 646 least-norm steps, 60 within the limits; none with it), and the
-    /// least-norm steps took 5–9× fewer evaluations; within-limits and Gauss–Newton runs
-    /// that converge are unchanged bit for bit. The workspace sweep turns it off (its
-    /// maps would change by a third; BENCHMARKS.md).
+    /// whose line search fails on a step across a tendon's kink once more so (a run that
+    /// fails elsewhere, e.g. at the actuation limits, is not retried). On by default:
+    /// warm 1 mm steps around circles of 10–50 mm radius failed where a tendon pair
+    /// passes through both-slack (92 of 2 646 least-norm steps, 60 within the limits;
+    /// none with it), and the least-norm steps took 5–9× fewer evaluations;
+    /// within-limits and Gauss–Newton runs that converge are unchanged bit for bit. The
+    /// workspace sweep keeps the retry only ([`WorkspaceSettings::one_sided_kinks`]).
+    ///
+    /// [`WorkspaceSettings::one_sided_kinks`]: crate::workspace::WorkspaceSettings::one_sided_kinks
     pub across_kinks: bool,
     /// Whether a Newton step of FK or square IK that takes a tendon across its kink
     /// (ζ = 0) is solved again with that tendon's column of the side it goes to (the

@@ -17,7 +17,8 @@
 //! factorization for chord steps only near the solution, [`newton::CHORD_TAIL`]). Steps
 //! across tendon kinks are one-sided ([`across_kinks`], [`super::Solver::across_kinks`];
 //! MODEL.md "Least-norm steps across tendon kinks"): the default least-norm steps from
-//! the start, and any run whose line search fails once more so ([`solve_across_kinks`]).
+//! the start, and any run whose line search fails on a step across a kink once more so
+//! ([`solve_across_kinks`]).
 //! On circles of 10–50 mm radius in 1 mm steps, 2–24 steps a circle failed before and
 //! none after; the least-norm steps there take 5–9× fewer evaluations.
 //! [`Redundancy::WithinLimits`] solves every Newton step as a quadratic program that
@@ -241,6 +242,9 @@ pub(super) struct LeastNormStep {
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
     /// ([`across_kinks`]).
     one_sided: bool,
+    /// Whether the last two-sided step took a tendon across its kink
+    /// ([`KinkSteps::last_step_crossed_a_kink`]).
+    crossed: bool,
     /// Buffers of [`LeastNormStep::solve`]: λ (m) and Aᵀ λ (n).
     lambda: DVector<f64>,
     at: DVector<f64>,
@@ -258,6 +262,7 @@ impl LeastNormStep {
             warm: false,
             gauss_newton,
             one_sided: false,
+            crossed: false,
             lambda: DVector::zeros(model.n_residuals()),
             at: DVector::zeros(nq + nu),
         }
@@ -301,6 +306,10 @@ pub(super) trait KinkSteps {
     /// Sets the rule up for another run from actuation `q` \[m\] (the retry of a failed
     /// run: as a fresh rule would start it).
     fn restart(&mut self, q: &[f64]);
+    /// Whether the last step, as the two-sided model gave it, takes some tendon across
+    /// its kink ([`crosses_a_kink`]): a run whose line search failed on a step that
+    /// does not is not retried with one-sided steps ([`solve_across_kinks`]).
+    fn last_step_crossed_a_kink(&self) -> bool;
 }
 
 impl KinkSteps for LeastNormStep {
@@ -319,6 +328,21 @@ impl KinkSteps for LeastNormStep {
     fn restart(&mut self, _q: &[f64]) {
         self.warm = false;
     }
+
+    fn last_step_crossed_a_kink(&self) -> bool {
+        self.crossed
+    }
+}
+
+/// Whether `step` from `x` takes some tendon unknown across its kink (ζ changes sign
+/// anywhere along the step).
+pub(super) fn crosses_a_kink(model: &Model, x: &[f64], step: &[f64]) -> bool {
+    let (nq, nu, nt) = (
+        model.n_actuators(),
+        model.n_leg_unknowns(),
+        model.n_tendons(),
+    );
+    (0..3).any(|leg| (nq + leg * nu..nq + leg * nu + nt).any(|j| crosses_kink(x[j], step[j])))
 }
 
 /// Whether `step` from `x` takes tendon unknown `j` across its kink within its first
@@ -457,6 +481,7 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         let step = self
             .solve(r, weights)
             .ok_or(StopReason::SingularLeastNormStep)?;
+        self.crossed = crosses_a_kink(system.model, x, &step);
         if !self.one_sided {
             return Ok(step);
         }
@@ -551,9 +576,13 @@ pub(super) fn least_norm_ik(
 /// ([`super::Solver::across_kinks`]): the first run where the rule takes them from the
 /// start ([`KinkSteps::one_sided_first`]), without the slack tendons' tension directions
 /// (a slack tendon that a step makes taut then keeps its two-sided column); where that
-/// run's line search fails, once more with one-sided steps and those directions (every
-/// crossing one-sided), the report counting the work of both runs (if the retry fails
-/// too, the first run's error). Two-sided steps crawl at a kink: the step with the slope
+/// run's line search fails on a step that takes a tendon across its kink
+/// ([`KinkSteps::last_step_crossed_a_kink`]), once more with one-sided steps and those
+/// directions (every crossing one-sided), the report counting the work of both runs (if
+/// the retry fails too, the first run's error). A run that fails on a step without a
+/// crossing (at the actuation limits, past a fold) is not retried: in the 9-DoF
+/// design's within-limits sweep such retries took 5 % of its time and converged none
+/// (the map the same, byte for byte). Two-sided steps crawl at a kink: the step with the slope
 /// of the side a tendon leaves overshoots beyond it, and the line search shortens it
 /// until the tendon just reaches the kink, by ever smaller steps.
 pub(super) fn solve_across_kinks<R>(
@@ -579,7 +608,7 @@ where
                 reason: StopReason::LineSearchFailed,
                 ..
             },
-        ) => {
+        ) if rule.last_step_crossed_a_kink() => {
             let mut failed = NewtonReport::of_failed_run(e, &system.evaluated);
             failed.residual_evaluations -= before.residual_evaluations;
             failed.jacobian_evaluations -= before.jacobian_evaluations;
@@ -705,6 +734,42 @@ mod tests {
             } else {
                 assert!(worst < 1e-12, "steps {worst:e} off the start's directions");
             }
+        }
+    }
+
+    /// `crosses_a_kink` (the retry's condition) looks at the tendon unknowns alone: a
+    /// step that changes the sign of q or of a strain unknown crosses nothing, one that
+    /// takes any tendon ζ through 0, either way and however far, does.
+    #[test]
+    fn a_kink_crossing_is_a_tendon_unknown_changing_sign() {
+        let file = format!(
+            "{}/designs/lilge2022_redundant.ron",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let design = Tdpcr::from_ron_file(&file).unwrap();
+        let model = Model::new(&design);
+        let (nq, nu, nt) = (
+            model.n_actuators(),
+            model.n_leg_unknowns(),
+            model.n_tendons(),
+        );
+        let n = nq + 3 * nu;
+        let x: Vec<f64> = (0..n)
+            .map(|j| if j % 2 == 0 { 0.5 } else { -0.5 })
+            .collect();
+        let flip = |j: usize, by: f64| {
+            let mut d = vec![0.0; n];
+            d[j] = -x[j] * by;
+            d
+        };
+        for j in 0..n {
+            let tendon = j >= nq && (j - nq) % nu < nt;
+            assert_eq!(
+                crosses_a_kink(&model, &x, &flip(j, 3.0)),
+                tendon,
+                "unknown {j}"
+            );
+            assert!(!crosses_a_kink(&model, &x, &flip(j, 0.5)), "unknown {j}");
         }
     }
 }

@@ -53,8 +53,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::least_change::{FactorCache, scaled_step_matrix};
 use super::redundant::{
-    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, crosses_at_a_kink,
-    solve_across_kinks,
+    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, crosses_a_kink,
+    crosses_at_a_kink, solve_across_kinks,
 };
 use super::state::RobotState;
 use crate::error::{SolveError, StopReason};
@@ -156,6 +156,9 @@ struct QpStep<'a> {
     /// Whether steps across tendon kinks are one-sided and stop at the first crossing
     /// ([`across_kinks`]).
     one_sided: bool,
+    /// Whether the last two-sided step took a tendon across its kink
+    /// ([`KinkSteps::last_step_crossed_a_kink`]).
+    crossed: bool,
 }
 
 impl<'a> QpStep<'a> {
@@ -175,6 +178,7 @@ impl<'a> QpStep<'a> {
             cache: FactorCache::default(),
             matrix: None,
             one_sided: false,
+            crossed: false,
         }
     }
 
@@ -234,6 +238,9 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         let matrix = scaled_step_matrix(system.blocks, weights, self.limits);
         let step = self.step_with(&matrix, x, r, weights, iteration);
         self.matrix = Some(matrix);
+        self.crossed = step
+            .as_ref()
+            .is_ok_and(|step| crosses_a_kink(system.model, x, step));
         if !self.one_sided {
             return step;
         }
@@ -290,6 +297,10 @@ impl KinkSteps for QpStep<'_> {
         self.active = Self::limits_at(self.limits, q);
         self.cache = FactorCache::default();
         self.matrix = None;
+    }
+
+    fn last_step_crossed_a_kink(&self) -> bool {
+        self.crossed
     }
 }
 

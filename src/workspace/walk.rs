@@ -153,11 +153,11 @@ impl Worker {
         // of its cells on other solutions along the rays (4 909 lost, 4 740 gained;
         // BENCHMARKS.md "Least-norm steps from the start's Jacobian").
         solver.least_norm_gauss_newton = true;
-        // Nor do the 9-DoF design's steps cross tendon kinks one-sided (not even where a
-        // run fails): with the retry of failed runs alone the maps would change by a third
-        // (free: 108 097 → 145 083 points, 8 368 lost; BENCHMARKS.md "Least-norm steps
-        // across tendon kinks"), a decision of its own.
-        solver.across_kinks = false;
+        // A 9-DoF step whose Gauss–Newton run fails on a step across a tendon's kink is
+        // retried with one-sided steps (`Solver::across_kinks`; the runs that converge
+        // keep their solutions): before, its ray ended there as not converged, at 3 263 of
+        // the free sweep's rays (BENCHMARKS.md "The 9-DoF sweeps across tendon kinks").
+        solver.across_kinks = settings.one_sided_kinks;
         solver.one_sided_kinks = settings.one_sided_kinks;
         // A step whose solution is certainly beyond the limits ends its ray as the
         // solution itself would (`classify`), a few iterations sooner.

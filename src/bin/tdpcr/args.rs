@@ -68,7 +68,9 @@ pub struct WorkspaceArgs {
     pub through_collisions: bool,
     /// Newton steps with the Jacobian's taut slope only, as before one-sided kink columns
     /// (library: `WorkspaceSettings::one_sided_kinks = false`): the map of before up to
-    /// round-off, about 15 % slower than the default.
+    /// round-off, about 15 % slower than the default; for the 9-DoF design no retry
+    /// with one-sided steps where a step across a tendon's kink fails (its ray ends
+    /// there, as before 2026-11-28).
     #[arg(long)]
     pub two_sided_kinks: bool,
     /// Newton keeps each step's Jacobian while its chord steps contract ‖b‖ by at least
