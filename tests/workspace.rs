@@ -259,7 +259,7 @@ fn the_redundant_design_swept_within_the_limits_keeps_every_q_inside() {
 /// The 9-DoF design's least-norm rays retry a step whose run fails on a step across a
 /// tendon's kink with one-sided steps (`Solver::across_kinks`; MODEL.md "The 9-DoF sweeps
 /// across tendon kinks"): on the plane z = 0 (Δ = 3 mm, 32 rays) 14 rays end unconverged
-/// without the retry and none with it, the map has 881 reachable cells instead of 753,
+/// without the retry and none with it, the map has 888 reachable cells instead of 753,
 /// and 671 of the 765 points before keep their q within 1e-9 m (the rest lie beyond a
 /// retried step, on rays that went on from another solution).
 #[test]

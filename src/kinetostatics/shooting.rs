@@ -15,7 +15,7 @@ use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 use super::predictor::{
     LastSolve, PREDICTOR_POINTS, PathPoint, is_last_solution, predict, target_vector,
 };
-use super::state::{RobotState, as_restated};
+use super::state::{RobotState, as_reported, as_restated};
 use super::{JacobianMethod, SOLVER_TENDON_UNKNOWN, Solver};
 use crate::boundary::{
     BoundaryJacobians, BoundaryPoint, BoundaryScratch, boundary_derivatives,
@@ -151,7 +151,7 @@ pub(super) fn run_with(
         solver.newton_system = Some(forward);
     }
     let mut y_u: Vec<f64> = x.rows(n_head, n_u).iter().copied().collect();
-    convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+    as_reported(model, &mut y_u);
     let state = match problem {
         Problem::Forward { q } => RobotState {
             position: [x[0], x[1], x[2]],

@@ -49,7 +49,7 @@ impl RobotState {
     /// The IK state at `pose` with actuation `q` and leg unknowns `y_u` in the solver's
     /// tendon variable (converted back to γ).
     pub(crate) fn at_pose(model: &Model, pose: &Pose, q: Vec<f64>, mut y_u: Vec<f64>) -> Self {
-        convert_tendon_unknowns(model, &mut y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+        as_reported(model, &mut y_u);
         RobotState {
             position: pose.position.into(),
             rotvec: Rotation3::from_matrix_unchecked(pose.rotation)
@@ -66,8 +66,29 @@ impl RobotState {
 /// round trip can move them by round-off; the legs' starts from the result are those of
 /// the state's, bit for bit).
 pub(crate) fn as_restated(model: &Model, y_u: &mut [f64]) {
-    convert_tendon_unknowns(model, y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+    as_reported(model, y_u);
     convert_tendon_unknowns(model, y_u, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
+}
+
+/// γ of a tendon that a solve ends exactly at its kink (ζ = 0: no tension, no slack, as
+/// the redundant IK's one-sided steps hold a tendon there): just taut, τ = γ² = 1e-16 N.
+/// At γ = 0 both slopes dτ/dγ and dΘ/dγ vanish (MODEL.md §9), so the analysis' blocks
+/// (γ columns, the paper's) would have a zero column and \[B_x B_u\] would be exactly
+/// singular, leaving no J_FK or compliance; at this γ the column is the taut side's times
+/// 2e-8 (the paper's rconds then near 0, the point flagged near Type II and leg
+/// singular) and J_FK and C are the taut side's. The residual moves by the tension's
+/// 1e-16 N, far below any tolerance.
+pub(crate) const GAMMA_AT_KINK: f64 = 1e-8;
+
+/// The solver's leg unknowns `y_u` (tendons in its ζ) as a state reports them, in γ, in
+/// place: a tendon exactly at its kink as [`GAMMA_AT_KINK`].
+pub(crate) fn as_reported(model: &Model, y_u: &mut [f64]) {
+    convert_tendon_unknowns(model, y_u, SOLVER_TENDON_UNKNOWN, TendonUnknown::Gamma);
+    for i in model.tendon_unknown_indices() {
+        if y_u[i] == 0.0 {
+            y_u[i] = GAMMA_AT_KINK;
+        }
+    }
 }
 
 /// A converged solve.

@@ -83,7 +83,7 @@ pub struct WorkspaceSettings {
     /// tangent ray starts); `false` takes the Jacobian's taut slopes only, as before.
     /// For the 9-DoF design it is [`Solver::across_kinks`]: a step whose run fails on a
     /// step across a tendon's kink is retried with one-sided steps (the default since
-    /// 2026-11-28: 34 % more reachable cells free, 27 % within the limits, no ray ending
+    /// 2026-11-28: 41 % more reachable cells free, 35 % within the limits, no ray ending
     /// unconverged at a kink); `false` ends such rays, as before.
     ///
     /// [`Solver::one_sided_kinks`]: crate::kinetostatics::Solver::one_sided_kinks
