@@ -581,10 +581,10 @@ pub(super) fn least_norm_ik(
 /// directions (every crossing one-sided), the report counting the work of both runs (if
 /// the retry fails too, the first run's error). A run that fails on a step without a
 /// crossing (at the actuation limits, past a fold) is not retried: in the 9-DoF
-/// design's within-limits sweep such retries took 5 % of its time and converged none
-/// (the map the same, byte for byte). Two-sided steps crawl at a kink: the step with the slope
-/// of the side a tendon leaves overshoots beyond it, and the line search shortens it
-/// until the tendon just reaches the kink, by ever smaller steps.
+/// design's within-limits sweep such retries took about 5 % of its time and changed no
+/// cell (the map the same, byte for byte). Two-sided steps crawl at a kink: the step
+/// with the slope of the side a tendon leaves overshoots beyond it, and the line search
+/// shortens it until the tendon just reaches the kink, by ever smaller steps.
 pub(super) fn solve_across_kinks<R>(
     system: &mut IkSystem<'_>,
     rule: &mut R,

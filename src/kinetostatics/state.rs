@@ -47,7 +47,7 @@ impl RobotState {
     }
 
     /// The IK state at `pose` with actuation `q` and leg unknowns `y_u` in the solver's
-    /// tendon variable (converted back to γ).
+    /// tendon variable (converted back to γ, [`as_reported`]).
     pub(crate) fn at_pose(model: &Model, pose: &Pose, q: Vec<f64>, mut y_u: Vec<f64>) -> Self {
         as_reported(model, &mut y_u);
         RobotState {
@@ -61,10 +61,11 @@ impl RobotState {
     }
 }
 
-/// The solver's leg unknowns `y_u` (tendons in its ζ) as a state reports them (in γ)
-/// and a solve or an analysis of that state reads them back: ζ → γ → ζ, in place (the
-/// round trip can move them by round-off; the legs' starts from the result are those of
-/// the state's, bit for bit).
+/// The solver's leg unknowns `y_u` (tendons in its ζ) as a state reports them (in γ,
+/// [`as_reported`]) and a solve or an analysis of that state reads them back: ζ → γ → ζ,
+/// in place (the round trip can move them by round-off, and a tendon exactly at its kink
+/// to ζ = 1e-16; the legs' starts from the result are those of the state's, bit for
+/// bit).
 pub(crate) fn as_restated(model: &Model, y_u: &mut [f64]) {
     as_reported(model, y_u);
     convert_tendon_unknowns(model, y_u, TendonUnknown::Gamma, SOLVER_TENDON_UNKNOWN);
