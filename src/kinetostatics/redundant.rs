@@ -337,12 +337,10 @@ impl KinkSteps for LeastNormStep {
 /// Whether `step` from `x` takes some tendon unknown across its kink (ζ changes sign
 /// anywhere along the step).
 pub(super) fn crosses_a_kink(model: &Model, x: &[f64], step: &[f64]) -> bool {
-    let (nq, nu, nt) = (
-        model.n_actuators(),
-        model.n_leg_unknowns(),
-        model.n_tendons(),
-    );
-    (0..3).any(|leg| (nq + leg * nu..nq + leg * nu + nt).any(|j| crosses_kink(x[j], step[j])))
+    let nq = model.n_actuators();
+    model
+        .tendon_unknown_indices()
+        .any(|i| crosses_kink(x[nq + i], step[nq + i]))
 }
 
 /// Whether `step` from `x` takes tendon unknown `j` across its kink within its first
