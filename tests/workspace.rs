@@ -262,9 +262,10 @@ fn the_redundant_design_swept_within_the_limits_keeps_every_q_inside() {
 /// and a tendon that a step's start takes across its kink starts just slack. On the plane
 /// z = 0 (Δ = 3 mm, 32 rays) without either 14 rays end unconverged, with both none; the
 /// map has 907 reachable cells instead of 753, in 5.4 instead of 6.2 residual
-/// evaluations a solve (the retries alone made a solve dearer: 9.0 against 7.9 residual
-/// evaluations on the full free sweep, failed runs included). (The rays carry other solutions from their first crossing on:
-/// the redundant sweep is path dependent, so the two maps' q are not compared.)
+/// evaluations a solve (the retries alone made a solve dearer: 9.0 against 7.9 on the
+/// full free sweep, failed runs included). The rays carry other solutions from their
+/// first crossing on (the redundant sweep is path dependent), so the two maps' q are not
+/// compared.
 #[test]
 fn the_redundant_design_sweeps_across_tendon_kinks() {
     let design = Tdpcr::from_ron_file(design_path("lilge2022_redundant.ron")).unwrap();

@@ -78,8 +78,8 @@ const HIGHER_ORDER_AGREEMENT: f64 = 0.02;
 /// ζ = γ|γ| (tension when positive, slack when negative: linear in the pose away from
 /// the taut/slack switch, where γ = ±√ζ is not), and a tendon whose prediction would
 /// switch between taut and slack is predicted at the switch (ζ = 0, or just slack:
-/// `crossing`): the two sides have
-/// different units (N, m), so extrapolating across is meaningless.
+/// `crossing`): the two sides have different units (N, m), so extrapolating across is
+/// meaningless.
 ///
 /// The solution is smooth in the pose only between switches, so once the last two
 /// solutions share their taut/slack pattern only the trailing solutions with that pattern
