@@ -256,16 +256,12 @@ fn the_redundant_design_swept_within_the_limits_keeps_every_q_inside() {
     );
 }
 
-/// The 9-DoF design's least-norm rays across tendon kinks (MODEL.md "The 9-DoF sweeps
-/// across tendon kinks", "Starts just slack across kinks"): a step whose run fails on a
-/// step across a tendon's kink is retried with one-sided steps (`Solver::across_kinks`),
-/// and a tendon that a step's start takes across its kink starts just slack. On the plane
-/// z = 0 (Δ = 3 mm, 32 rays) without either 14 rays end unconverged, with both none; the
-/// map has 907 reachable cells instead of 753, in 5.4 instead of 6.2 residual
-/// evaluations a solve (the retries alone made a solve dearer: 9.0 against 7.9 on the
-/// full free sweep, failed runs included). The rays carry other solutions from their
-/// first crossing on (the redundant sweep is path dependent), so the two maps' q are not
-/// compared.
+/// The 9-DoF design's least-norm rays retry a step whose run fails on a step across a
+/// tendon's kink with one-sided steps (`Solver::across_kinks`; MODEL.md "The 9-DoF sweeps
+/// across tendon kinks"): on the plane z = 0 (Δ = 3 mm, 32 rays) 14 rays end unconverged
+/// without the retry and none with it, the map has 888 reachable cells instead of 753,
+/// and 671 of the 765 points before keep their q within 1e-9 m (the rest lie beyond a
+/// retried step, on rays that went on from another solution).
 #[test]
 fn the_redundant_design_sweeps_across_tendon_kinks() {
     let design = Tdpcr::from_ron_file(design_path("lilge2022_redundant.ron")).unwrap();
@@ -275,7 +271,7 @@ fn the_redundant_design_sweeps_across_tendon_kinks() {
         z_range: [0.0, 0.0],
         ..Default::default()
     };
-    let across = sweep_on(2, &design, &settings);
+    let retried = sweep_on(2, &design, &settings);
     let ended = sweep_on(
         2,
         &design,
@@ -284,7 +280,7 @@ fn the_redundant_design_sweeps_across_tendon_kinks() {
             ..settings
         },
     );
-    let (a, b) = (&across.summary, &ended.summary);
+    let (a, b) = (&retried.summary, &ended.summary);
     assert!(b.ray_ends.not_converged >= 5, "{:?}", b.ray_ends);
     assert_eq!(a.ray_ends.not_converged, 0, "{:?}", a.ray_ends);
     assert!(
@@ -293,14 +289,20 @@ fn the_redundant_design_sweeps_across_tendon_kinks() {
         a.counts.reachable,
         b.counts.reachable
     );
-    // The starts just slack spare the crawls back to the kinks.
+    let kept = ended
+        .points
+        .iter()
+        .filter(|p| {
+            retried
+                .points
+                .iter()
+                .any(|r| r.position == p.position && q_difference(p, r) < 1e-9)
+        })
+        .count();
     assert!(
-        10 * a.residual_evaluations * b.solves <= 9 * b.residual_evaluations * a.solves,
-        "{} residuals in {} solves against {} in {}",
-        a.residual_evaluations,
-        a.solves,
-        b.residual_evaluations,
-        b.solves
+        5 * kept >= 4 * ended.points.len(),
+        "{kept} of {} points kept",
+        ended.points.len()
     );
 }
 

@@ -392,8 +392,7 @@ impl Robot {
     /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
     /// (dicts, as the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the
     /// Jacobian's taut slopes only and, for the 9-DoF design, without retrying a failed
-    /// step across a tendon's kink one-sided and with starts at a kink instead of just
-    /// slack (the CLI's `--two-sided-kinks`); `chord_contraction`
+    /// step across a tendon's kink one-sided (the CLI's `--two-sided-kinks`); `chord_contraction`
     /// in [0, 1) (default 0.1) as the CLI's `--chord-contraction`; `probe_iterations` ≥ 1
     /// (default 15) as the CLI's `--probe-iterations`.
     #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true, chord_contraction=None, probe_iterations=None))]

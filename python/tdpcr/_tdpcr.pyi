@@ -291,8 +291,7 @@ class Robot:
         Jacobian's taut slopes only (the CLI's ``--two-sided-kinks``: the maps of
         before, with more Newton Jacobians) and, for the 9-DoF design, does not retry
         a step whose run fails on a step across a tendon's kink with one-sided steps
-        (its ray then ends there) and starts a tendon predicted across its kink at the
-        kink instead of just slack. ``chord_contraction`` in [0, 1) (default
+        (its ray then ends there). ``chord_contraction`` in [0, 1) (default
         0.1): Newton keeps each step's Jacobian while its chord steps contract ‖b‖ by
         at least this factor (the CLI's ``--chord-contraction``; 0.5 saves work at
         coarse steps, cells at folds may move). ``probe_iterations`` ≥ 1 (default 15):

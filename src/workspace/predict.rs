@@ -31,33 +31,6 @@ use crate::rod::tendon::TendonUnknown;
 /// 474) where the prediction crosses the switch.
 pub(super) const PREDICTOR_POINTS: usize = 5;
 
-/// Where a path step's start puts a tendon that its extrapolation takes across its kink.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum CrossingStart {
-    /// At the kink, ζ = 0: the 6-DoF design's (its starts across kinks,
-    /// [`super::kink_start`], look for it), and any design's with
-    /// [`WorkspaceSettings::one_sided_kinks`](super::WorkspaceSettings::one_sided_kinks)
-    /// off.
-    AtKink,
-    /// Just slack, ζ = −[`JUST_SLACK`]: a redundant design's (see there).
-    JustSlack,
-}
-
-/// The slack \[m\] with which a redundant design's tendon predicted across its kink
-/// starts ([`CrossingStart::JustSlack`]): nothing in the residual, but the Newton run's
-/// first Jacobian takes the slack side's slope (the tendon's length row alone) where
-/// ζ = 0 would give it the taut side's, which couples the tendon's tension into every
-/// row of its leg and the platform. The redundant IK's Gauss–Newton and QP runs (the
-/// 9-DoF sweeps) evaluate that Jacobian at the start (no seeded columns), and a first
-/// step on the taut side's slope that ends slack overshoots: its line search then
-/// crawls to the kink in 8–12 halvings. Measured on the 9-DoF reference's plane z = 0
-/// (`--limits free`, Δ = 3 mm, φ = 0.035, one thread; BENCHMARKS.md "Starts just slack
-/// across kinks"): with ζ = 0, 48 959 residual evaluations (11 255 with the Jacobian) in
-/// 5 710 solves; just slack where the prediction ends slack, 45 387 (11 103); just slack
-/// for every predicted crossing, 30 433 (9 324): a wrong slack-side start (the tendon
-/// turns taut after all) costs one full step, a wrong taut-side start a crawl.
-pub(super) const JUST_SLACK: f64 = 1e-300;
-
 /// The extrapolation of more than three solutions is used where it differs from the
 /// quadratic through the last three by at most this fraction of the last step's change
 /// (‖·‖_∞ over q); otherwise the quadratic is (the steps are then too long for the
@@ -77,9 +50,8 @@ const HIGHER_ORDER_AGREEMENT: f64 = 0.02;
 /// [`HIGHER_ORDER_AGREEMENT`]), none from one. Tendon unknowns are extrapolated in
 /// ζ = γ|γ| (tension when positive, slack when negative: linear in the pose away from
 /// the taut/slack switch, where γ = ±√ζ is not), and a tendon whose prediction would
-/// switch between taut and slack is predicted at the switch (ζ = 0, or just slack:
-/// `crossing`): the two sides have different units (N, m), so extrapolating across is
-/// meaningless.
+/// switch between taut and slack is predicted at the switch (ζ = 0): the two sides have
+/// different units (N, m), so extrapolating across is meaningless.
 ///
 /// The solution is smooth in the pose only between switches, so once the last two
 /// solutions share their taut/slack pattern only the trailing solutions with that pattern
@@ -90,11 +62,7 @@ const HIGHER_ORDER_AGREEMENT: f64 = 0.02;
 /// alternatives measured worse there (starting from the last solution lost 7 of 1581
 /// cells on z = 0, a linear extrapolation from the last two lost 24), and a quartic
 /// across it more so (see [`PREDICTOR_POINTS`]).
-pub(super) fn predict(
-    model: &Model,
-    history: &[&RobotState],
-    crossing: CrossingStart,
-) -> Option<RobotState> {
+pub(super) fn predict(model: &Model, history: &[&RobotState]) -> Option<RobotState> {
     let extrapolate = |xs: &[&[f64]]| -> Vec<f64> {
         let mut out = vec![0.0; xs[xs.len() - 1].len()];
         extrapolate(xs, &mut out);
@@ -121,8 +89,7 @@ pub(super) fn predict(
         }
     }
     let y_u = extrapolate(&zeta[from..].iter().map(Vec::as_slice).collect::<Vec<_>>());
-    let last_zeta = &zeta[zeta.len() - 1];
-    Some(predicted_state(model, last, last_zeta, q, y_u, crossing))
+    Some(predicted_state(model, last, &zeta[zeta.len() - 1], q, y_u))
 }
 
 /// The leg unknowns of `state` with the tendons' in ζ = γ|γ|.
@@ -134,22 +101,17 @@ pub(super) fn in_zeta(model: &Model, state: &RobotState) -> Vec<f64> {
 
 /// The predicted state of actuation `q` and leg unknowns `y_u` (tendons in ζ) at the pose
 /// of `last` (whose leg unknowns in ζ are `last_zeta`): a tendon predicted across its
-/// kink (ζ of the other sign than in `last`) starts as `crossing` says.
+/// kink (ζ of the other sign than in `last`) starts at the kink, ζ = 0.
 pub(super) fn predicted_state(
     model: &Model,
     last: &RobotState,
     last_zeta: &[f64],
     q: Vec<f64>,
     mut y_u: Vec<f64>,
-    crossing: CrossingStart,
 ) -> RobotState {
-    let start = match crossing {
-        CrossingStart::AtKink => 0.0,
-        CrossingStart::JustSlack => -JUST_SLACK,
-    };
     for i in model.tendon_unknown_indices() {
         if y_u[i] * last_zeta[i] < 0.0 {
-            y_u[i] = start;
+            y_u[i] = 0.0;
         }
     }
     convert_tendon_unknowns(model, &mut y_u, TendonUnknown::Linear, TendonUnknown::Gamma);
@@ -249,7 +211,6 @@ const QUADRATIC: usize = 3;
 
 #[cfg(test)]
 mod tests {
-    use super::CrossingStart::{AtKink, JustSlack};
     use super::*;
     use crate::design::Tdpcr;
 
@@ -281,7 +242,7 @@ mod tests {
             state(&m, 2.0, 1.1),
             state(&m, 3.0, 1.2),
         ];
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         // q = s² is extrapolated exactly by a quadratic.
         assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
     }
@@ -295,7 +256,7 @@ mod tests {
             state(&m, 2.0, 1.1),
             state(&m, 3.0, 1.2),
         ];
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         // Linear from the last two: 2 · 9 − 4 = 14 (the quadratic through all three: 16).
         assert!(p.q.iter().all(|q| (q - 14.0).abs() < 1e-12), "{:?}", p.q);
         // Right after the switch the last three are extrapolated (see `predict`).
@@ -304,7 +265,7 @@ mod tests {
             state(&m, 2.0, -0.4),
             state(&m, 3.0, 1.2),
         ];
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
     }
 
@@ -326,7 +287,7 @@ mod tests {
         // Short steps, s = 1, 1.01, …, 1.04: the quartic is exact (1.05⁴) and agrees with
         // the quadratic (off by 2.5e-5, 5.5e-4 of the last step's change).
         let h = quartic_history(&m, 1.0, 0.01);
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(
             p.q.iter().all(|q| (q - 1.05f64.powi(4)).abs() < 1e-12),
             "{:?}",
@@ -336,7 +297,7 @@ mod tests {
         // s = 3, 4, 5 (3 · 625 − 3 · 256 + 81 = 1188) by 29 % of the last step: the
         // quadratic.
         let mut h = quartic_history(&m, 1.0, 1.0);
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(p.q.iter().all(|q| (q - 1188.0).abs() < 1e-9), "{:?}", p.q);
         // A switch at the newest solution: the quadratic through the last three, whatever
         // the agreement.
@@ -344,49 +305,16 @@ mod tests {
         for s in [&mut h, &mut short] {
             s[4].y_u = state(&m, 5.0, -1.0).y_u;
         }
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(p.q.iter().all(|q| (q - 1188.0).abs() < 1e-9), "{:?}", p.q);
         let quadratic = 3.0 * 1.04f64.powi(4) - 3.0 * 1.03f64.powi(4) + 1.02f64.powi(4);
-        let p = predict(&m, &short.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &short.iter().collect::<Vec<_>>()).unwrap();
         assert!(
             p.q.iter().all(|q| (q - quadratic).abs() < 1e-12),
             "{:?}",
             p.q
         );
         assert!((quadratic - 1.05f64.powi(4)).abs() > 1e-5);
-    }
-
-    #[test]
-    fn a_tendon_predicted_across_its_kink_starts_at_it_or_just_slack() {
-        for (design, crossing, expected) in [
-            ("lilge2022.ron", AtKink, 0.0),
-            ("lilge2022_redundant.ron", AtKink, 0.0),
-            ("lilge2022_redundant.ron", JustSlack, -JUST_SLACK.sqrt()),
-        ] {
-            let m = model(design);
-            // Taut tendons losing tension (ζ = γ² = 0.25, 0.16, 0.09: the quadratic
-            // extrapolates ζ = 0.04, still taut), then (ζ = 0.25, 0.15, 0.05: −0.05)
-            // across the kink into slack, and back (ζ = −0.25, −0.15, −0.05: 0.05).
-            let taut = [
-                state(&m, 1.0, 0.5),
-                state(&m, 2.0, 0.4),
-                state(&m, 3.0, 0.3),
-            ];
-            let p = predict(&m, &taut.iter().collect::<Vec<_>>(), crossing).unwrap();
-            for i in m.tendon_unknown_indices() {
-                assert!((p.y_u[i] - 0.2).abs() < 1e-12, "{design}: {}", p.y_u[i]);
-            }
-            let across = [0.25f64, 0.15, 0.05].map(f64::sqrt);
-            for gamma in [across, across.map(|g| -g)] {
-                let h: Vec<_> = (0..3)
-                    .map(|k| state(&m, 1.0 + k as f64, gamma[k]))
-                    .collect();
-                let p = predict(&m, &h.iter().collect::<Vec<_>>(), crossing).unwrap();
-                for i in m.tendon_unknown_indices() {
-                    assert_eq!(p.y_u[i], expected, "{design}, from γ = {gamma:?}");
-                }
-            }
-        }
     }
 
     #[test]
@@ -397,12 +325,12 @@ mod tests {
             state(&m, 2.0, 1.1),
             state(&m, 3.0, 1.2),
         ];
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         assert!(p.q.iter().all(|q| (q - 16.0).abs() < 1e-12), "{:?}", p.q);
         // Five of one pattern, close together (where a 6-DoF design takes the quartic):
         // the quadratic through the last three.
         let h = quartic_history(&m, 1.0, 0.01);
-        let p = predict(&m, &h.iter().collect::<Vec<_>>(), AtKink).unwrap();
+        let p = predict(&m, &h.iter().collect::<Vec<_>>()).unwrap();
         let quadratic = 3.0 * 1.04f64.powi(4) - 3.0 * 1.03f64.powi(4) + 1.02f64.powi(4);
         assert!(
             p.q.iter().all(|q| (q - quadratic).abs() < 1e-12),

@@ -84,10 +84,7 @@ pub struct WorkspaceSettings {
     /// For the 9-DoF design it is [`Solver::across_kinks`]: a step whose run fails on a
     /// step across a tendon's kink is retried with one-sided steps (the default since
     /// 2026-11-28: 41 % more reachable cells free, 35 % within the limits, no ray ending
-    /// unconverged at a kink), and a tendon that a step's start takes across its kink
-    /// starts just slack instead of at the kink (6 % (within the limits) and 16 % (free)
-    /// fewer residual evaluations over the planes of the sweeps before, BENCHMARKS.md
-    /// "Starts just slack across kinks"); `false` does neither, as before.
+    /// unconverged at a kink); `false` ends such rays, as before.
     ///
     /// [`Solver::one_sided_kinks`]: crate::kinetostatics::Solver::one_sided_kinks
     /// [`Solver::across_kinks`]: crate::kinetostatics::Solver::across_kinks

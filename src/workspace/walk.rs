@@ -23,9 +23,7 @@ use super::collision::CollisionChecker;
 use super::ends::End;
 use super::kink_start::KinkStart;
 use super::metrics::{AnalysisSettings, PointMetrics, complete_scaled, point_metrics_deferred};
-use super::predict::{
-    CrossingStart, PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state,
-};
+use super::predict::{PREDICTOR_POINTS, in_zeta, max_difference, predict, predicted_state};
 use super::settings::{CollisionPolicy, WorkspaceSettings};
 
 /// Counters shared by the workers (summed; their totals do not depend on the schedule).
@@ -138,8 +136,6 @@ pub(super) struct Worker {
     analysis: AnalysisSettings,
     /// [`WorkspaceSettings::probe_iterations`].
     pub(super) probe_iterations: usize,
-    /// Where a step's start puts a tendon predicted across its kink.
-    pub(super) crossing: CrossingStart,
     /// The message of the last [`End::Failed`].
     pub(super) error: Option<String>,
 }
@@ -172,14 +168,6 @@ impl Worker {
         let collisions = CollisionChecker::new(solver.model());
         let jacobians = JacobianHistory::new(solver.model());
         let kinks = KinkStart::new(solver.model());
-        // A redundant design's tendons predicted across their kinks start just slack
-        // (`predict::JUST_SLACK`): its runs' first step then has the slack side's
-        // column, and does not crawl back to the kink as from the taut side's.
-        let crossing = if settings.one_sided_kinks && solver.model().pairs > 1 {
-            CrossingStart::JustSlack
-        } else {
-            CrossingStart::AtKink
-        };
         Ok(Self {
             solver,
             collisions,
@@ -187,7 +175,6 @@ impl Worker {
             kinks,
             analysis: settings.analysis,
             probe_iterations: settings.probe_iterations,
-            crossing,
             error: None,
         })
     }
@@ -276,8 +263,9 @@ impl Worker {
         let last = history[history.len() - 1];
         let predicted = match start {
             Some(_) => None,
-            None => predict(model, history, self.crossing)
-                .map(|p| self.across_kinks(model, history, p, &position)),
+            None => {
+                predict(model, history).map(|p| self.across_kinks(model, history, p, &position))
+            }
         };
         let guess = start.or(predicted.as_ref()).unwrap_or(last);
         // The full budget only if the first iterations made progress.
@@ -556,8 +544,7 @@ pub(super) struct RayStart {
 
 impl RayStart {
     /// The first-order prediction of the solution at `origin` moved by (dx, dy) \[m\]:
-    /// as [`predict`], a tendon predicted across its kink starts at the kink (ζ = 0: a ray
-    /// start needs a square IK Jacobian, so the design is not redundant).
+    /// as [`predict`], a tendon predicted across its kink starts at the kink (ζ = 0).
     fn guess(&self, model: &Model, origin: &RobotState, dx: f64, dy: f64) -> RobotState {
         let nq = model.n_actuators();
         let [tx, ty] = &self.tangents;
@@ -574,7 +561,7 @@ impl RayStart {
             .enumerate()
             .map(|(i, q)| q + step(i))
             .collect();
-        predicted_state(model, origin, &zeta, q, y_u, CrossingStart::AtKink)
+        predicted_state(model, origin, &zeta, q, y_u)
     }
 }
 

@@ -70,7 +70,7 @@ pub struct WorkspaceArgs {
     /// (library: `WorkspaceSettings::one_sided_kinks = false`): the map of before up to
     /// round-off, about 15 % slower than the default; for the 9-DoF design no retry
     /// with one-sided steps where a step across a tendon's kink fails (its ray ends
-    /// there) and starts at the kink, not just slack (both as before 2026-11-28).
+    /// there, as before 2026-11-28).
     #[arg(long)]
     pub two_sided_kinks: bool,
     /// Newton keeps each step's Jacobian while its chord steps contract ‖b‖ by at least
