@@ -40,7 +40,8 @@ use nalgebra::{DMatrix, DVector};
 use super::SOLVER_TENDON_UNKNOWN;
 use super::least_change::{LeastChange, scaled_step_matrix};
 use super::shooting::{
-    STEP_LIMIT_MIN_FRACTION, crosses_kink, restated_residual, row_scales, row_weights,
+    STEP_LIMIT_MIN_FRACTION, crosses_a_kink, crosses_kink, restated_residual, row_scales,
+    row_weights,
 };
 use super::state::RobotState;
 use crate::boundary::{
@@ -334,15 +335,6 @@ impl KinkSteps for LeastNormStep {
     }
 }
 
-/// Whether `step` from `x` takes some tendon unknown across its kink (ζ changes sign
-/// anywhere along the step).
-pub(super) fn crosses_a_kink(model: &Model, x: &[f64], step: &[f64]) -> bool {
-    let nq = model.n_actuators();
-    model
-        .tendon_unknown_indices()
-        .any(|i| crosses_kink(x[nq + i], step[nq + i]))
-}
-
 /// Whether `step` from `x` takes tendon unknown `j` across its kink within its first
 /// [`STEP_LIMIT_MIN_FRACTION`] (the tendon is at the kink) to a side whose column
 /// [`across_kinks`] can give it: a slack tendon's taut column needs its tension
@@ -479,7 +471,7 @@ impl StepRule<IkSystem<'_>> for LeastNormStep {
         let step = self
             .solve(r, weights)
             .ok_or(StopReason::SingularLeastNormStep)?;
-        self.crossed = crosses_a_kink(system.model, x, &step);
+        self.crossed = crosses_a_kink(system.model, system.model.n_actuators(), x, &step);
         if !self.one_sided {
             return Ok(step);
         }
@@ -763,11 +755,14 @@ mod tests {
         for j in 0..n {
             let tendon = j >= nq && (j - nq) % nu < nt;
             assert_eq!(
-                crosses_a_kink(&model, &x, &flip(j, 3.0)),
+                crosses_a_kink(&model, nq, &x, &flip(j, 3.0)),
                 tendon,
                 "unknown {j}"
             );
-            assert!(!crosses_a_kink(&model, &x, &flip(j, 0.5)), "unknown {j}");
+            assert!(
+                !crosses_a_kink(&model, nq, &x, &flip(j, 0.5)),
+                "unknown {j}"
+            );
         }
     }
 }

@@ -428,8 +428,7 @@ impl NonlinearSystem for ShootingSystem<'_> {
             return false;
         }
         let head = self.head();
-        let mut tendons = self.model.tendon_unknown_indices().map(|i| head + i);
-        if tendons.any(|j| crosses_kink(x[j], step[j])) {
+        if crosses_a_kink(self.model, head, x.as_slice(), step.as_slice()) {
             return false;
         }
         beyond_limits(self.model, &x.as_slice()[..head], &step.as_slice()[..head])
@@ -509,6 +508,14 @@ impl NonlinearSystem for ShootingSystem<'_> {
 /// taut at ζ ≥ 0, slack below).
 pub(super) fn crosses_kink(z: f64, dz: f64) -> bool {
     if z >= 0.0 { z + dz < 0.0 } else { z + dz > 0.0 }
+}
+
+/// Whether `step` from `x` takes some tendon unknown across its kink ([`crosses_kink`]),
+/// with the legs' unknowns (tendons in ζ) after the first `head` entries of both.
+pub(super) fn crosses_a_kink(model: &Model, head: usize, x: &[f64], step: &[f64]) -> bool {
+    model
+        .tendon_unknown_indices()
+        .any(|i| crosses_kink(x[head + i], step[head + i]))
 }
 
 /// Whether the actuation `q` \[m\] moved by its Newton step `dq` ends beyond an

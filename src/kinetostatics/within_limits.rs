@@ -53,9 +53,10 @@ use nalgebra::{DMatrix, DVector};
 
 use super::least_change::{FactorCache, scaled_step_matrix};
 use super::redundant::{
-    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, crosses_a_kink,
-    crosses_at_a_kink, solve_across_kinks,
+    IkSystem, KinkSteps, LEAST_NORM_Y_WEIGHT, Objective, across_kinks, crosses_at_a_kink,
+    solve_across_kinks,
 };
+use super::shooting::crosses_a_kink;
 use super::state::RobotState;
 use crate::error::{SolveError, StopReason};
 use crate::model::Model;
@@ -240,7 +241,7 @@ impl StepRule<IkSystem<'_>> for QpStep<'_> {
         self.matrix = Some(matrix);
         self.crossed = step
             .as_ref()
-            .is_ok_and(|step| crosses_a_kink(system.model, x, step));
+            .is_ok_and(|step| crosses_a_kink(system.model, system.model.n_actuators(), x, step));
         if !self.one_sided {
             return step;
         }
