@@ -1367,6 +1367,14 @@ pub trait LineSearchSystem {
         self.residual(x, r)
     }
 
+    /// The factor of [`ends_the_run`]'s prediction for this system's chord trials: a
+    /// trial is evaluated by [`LineSearchSystem::final_residual`] where the last
+    /// contraction repeated would bring ‖F‖ within this multiple of the tolerance
+    /// (default [`FINAL_PREDICTION`]).
+    fn final_prediction(&self) -> f64 {
+        FINAL_PREDICTION
+    }
+
     /// Whether [`solve_with_line_search`] may evaluate a full step's trial point with its
     /// Jacobian where the next iterate will need one, and end a run at a chord trial
     /// within the tolerance that contracted less than a chord step must (default: no).
@@ -1440,7 +1448,13 @@ pub trait StepRule<S> {
 /// 41 455 and 4 620 — a mispredicted trial costs its sensitivities, about six
 /// residuals).
 pub fn ends_the_run(norm: f64, previous: f64, tolerance: f64) -> bool {
-    norm * (norm / previous) <= FINAL_PREDICTION * tolerance
+    ends_the_run_within(norm, previous, tolerance, FINAL_PREDICTION)
+}
+
+/// [`ends_the_run`] with `prediction` in place of [`FINAL_PREDICTION`] (a
+/// [`LineSearchSystem::final_prediction`]).
+fn ends_the_run_within(norm: f64, previous: f64, tolerance: f64, prediction: f64) -> bool {
+    norm * (norm / previous) <= prediction * tolerance
 }
 
 /// See [`ends_the_run`].
@@ -1499,7 +1513,8 @@ pub const CHORD_TAIL: f64 = 1e3;
 /// with that trial's Jacobian instead of a chord step (a difference within the
 /// tolerance).
 ///
-/// A chord trial that [`ends_the_run`] predicts to converge is evaluated by
+/// A chord trial that [`ends_the_run`] predicts to converge (with the system's
+/// [`LineSearchSystem::final_prediction`]) is evaluated by
 /// [`LineSearchSystem::final_residual`] if the system [prepares
 /// one](LineSearchSystem::prepares_final_residual) (the same iterates).
 ///
@@ -1560,7 +1575,12 @@ pub fn solve_with_line_search<S: LineSearchSystem, R: StepRule<S>>(
                 report.residual_evaluations += 1;
                 let finite = |r: &DVector<f64>| r.iter().all(|v| v.is_finite());
                 let last = system.prepares_final_residual()
-                    && ends_the_run(report.residual_norm, previous_norm, settings.tolerance);
+                    && ends_the_run_within(
+                        report.residual_norm,
+                        previous_norm,
+                        settings.tolerance,
+                        system.final_prediction(),
+                    );
                 let mut ok = if last {
                     system.final_residual(&x_t, &mut trial).is_ok() && finite(&trial)
                 } else {

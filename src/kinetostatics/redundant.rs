@@ -59,6 +59,21 @@ use crate::rod::tendon::TendonUnknown;
 /// the line search then stalls; 1e-6 to 1e-4 converge in 3–5 steps).
 pub(crate) const LEAST_NORM_Y_WEIGHT: f64 = 1e-6;
 
+/// The factor of the last-residual prediction ([`newton::ends_the_run`]) for a path
+/// step's runs, whose last residual is prepared for the next step's start (the default
+/// 0.1 was chosen for the sweep's analyses, where a mispredicted trial costs its
+/// sensitivities for nothing). The least-norm steps' chord contraction grows from step
+/// to step (0.004, 0.016, 0.023 on a 1 mm step), so the last one repeated
+/// underestimates, and on a 1 mm back-and-forth path the last trial's prediction lands
+/// at 0.09–0.11 × the tolerance: 37 of 100 steps were prepared, each of the other 63
+/// integrated its start's Jacobian afresh. Chord trials of warm 1 mm least-norm steps
+/// around circles of 5–50 mm radius (flat and tilted 10°, 7 690 trials, 2 848 of them
+/// converged; a prepared trial costs 4.6 residuals): 0.1 prepared 1 905 converged
+/// trials and no other; 0.25 prepares 2 527 and mispredicts 73, a net 286 residuals
+/// fewer (0.2–0.35 alike, 0.5 worse); within-limits steps 865 → 870 of 872, no
+/// misprediction (2026-11-28, twenty-fourth session).
+pub(super) const PATH_STEP_FINAL_PREDICTION: f64 = 0.25;
+
 /// How the IK of the redundant (9-DoF) design chooses among its solutions.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -189,6 +204,13 @@ impl LineSearchSystem for IkSystem<'_> {
 
     fn prepares_final_residual(&self) -> bool {
         self.prepare.is_some()
+    }
+
+    fn final_prediction(&self) -> f64 {
+        match self.prepare {
+            Some(false) => PATH_STEP_FINAL_PREDICTION,
+            _ => newton::FINAL_PREDICTION,
+        }
     }
 
     /// The residual at x with the tendon unknowns as the solution's state restates them
