@@ -19,10 +19,14 @@ pub struct WriteError {
 
 /// Writes `bytes` to `path` through `.<name>.<pid>.tmp` in the same directory, synced to
 /// disk, then renamed over `path`; the temporary file is removed on any failure. The one
-/// atomic writer of tdpcr's outputs (with [`write_atomically_with`]).
+/// atomic writer of tdpcr's outputs (with [`write_atomically_with`]). A symbolic link
+/// is followed (the file it names is replaced, the link stays); anything else that is
+/// not a regular file (a directory, a device such as `/dev/null`, a pipe) is refused
+/// before anything is written: the rename would replace it.
 ///
 /// # Errors
-/// [`WriteError`] with the path and the I/O error.
+/// [`WriteError`] with the path and the I/O error (`InvalidInput` for a target that is
+/// not a regular file, `NotFound` for a dangling link).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
     write_atomically_with(path, |file| file.write_all(bytes))
 }
@@ -36,24 +40,72 @@ pub fn write_atomically_with(
     path: &Path,
     fill: impl FnOnce(&mut fs::File) -> io::Result<()>,
 ) -> Result<(), WriteError> {
-    let name = path
+    let error = |source| WriteError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let target = regular_file_target(path).map_err(error)?;
+    let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp: PathBuf = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let tmp: PathBuf = target.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
     let result = (|| {
         let mut f = fs::File::create(&tmp)?;
         fill(&mut f)?;
         f.sync_all()?;
-        fs::rename(&tmp, path)
+        fs::rename(&tmp, &target)
     })();
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
     }
-    result.map_err(|source| WriteError {
-        path: path.to_path_buf(),
-        source,
-    })
+    result.map_err(error)
+}
+
+/// The file an atomic write of `path` replaces: `path` itself, or the file a symbolic
+/// link names; an error if that exists and is not a regular file.
+fn regular_file_target(path: &Path) -> io::Result<PathBuf> {
+    let is_link = fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    let target = if is_link {
+        fs::canonicalize(path).map_err(|e| {
+            io::Error::new(e.kind(), format!("a symbolic link to a missing path ({e})"))
+        })?
+    } else {
+        path.to_path_buf()
+    };
+    match fs::metadata(&target) {
+        Ok(m) if !m.is_file() => Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "{} is a {}, expected a regular file or a new file's path",
+                target.display(),
+                kind_of(&m.file_type())
+            ),
+        )),
+        _ => Ok(target),
+    }
+}
+
+/// What a file type is, in words.
+fn kind_of(t: &fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() || t.is_block_device() {
+            return "device";
+        }
+        if t.is_fifo() {
+            return "named pipe";
+        }
+        if t.is_socket() {
+            return "socket";
+        }
+    }
+    if t.is_dir() {
+        "directory"
+    } else {
+        "special file"
+    }
 }
 
 /// Moved to [`crate::cli_support`] (feature `cli`); re-exported here for old callers.
@@ -80,6 +132,61 @@ mod tests {
         // Into a directory that does not exist: an error, nothing left behind.
         assert!(write_atomically(&dir.join("missing").join("b.txt"), b"x").is_err());
         assert_eq!(fs::read_dir(&dir).unwrap().count(), 1);
+        fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A link is followed, and a target that is not a regular file is refused before
+    /// anything is written (the rename replaced `--view /dev/null` by a regular file).
+    #[test]
+    fn links_are_followed_and_special_files_refused() {
+        let dir = std::env::temp_dir().join(format!("tdpcr-special-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let sub = dir.join("sub");
+        fs::create_dir_all(&sub).unwrap();
+        let err = write_atomically(&sub, b"x").unwrap_err().to_string();
+        assert!(
+            err.contains("is a directory, expected a regular file"),
+            "{err}"
+        );
+        assert!(sub.is_dir());
+        #[cfg(unix)]
+        {
+            // A socket file stands for the devices and pipes (a test must not risk
+            // /dev/null).
+            let socket = dir.join("socket");
+            let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+            let err = write_atomically(&socket, b"x").unwrap_err().to_string();
+            assert!(err.contains("socket is a socket, expected"), "{err}");
+            fs::remove_file(&socket).unwrap();
+            let target = dir.join("target.html");
+            fs::write(&target, "old").unwrap();
+            let link = dir.join("link.html");
+            std::os::unix::fs::symlink(&target, &link).unwrap();
+            write_atomically(&link, b"new").unwrap();
+            assert!(
+                fs::symlink_metadata(&link)
+                    .unwrap()
+                    .file_type()
+                    .is_symlink()
+            );
+            assert_eq!(fs::read_to_string(&target).unwrap(), "new");
+            let dangling = dir.join("dangling.html");
+            std::os::unix::fs::symlink(dir.join("missing").join("x"), &dangling).unwrap();
+            let err = write_atomically(&dangling, b"x").unwrap_err().to_string();
+            assert!(err.contains("symbolic link to a missing path"), "{err}");
+        }
+        // Nothing but what the test made (no temporary left anywhere).
+        let mut names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        let expected: &[&str] = if cfg!(unix) {
+            &["dangling.html", "link.html", "sub", "target.html"]
+        } else {
+            &["sub"]
+        };
+        assert_eq!(names, expected);
         fs::remove_dir_all(&dir).ok();
     }
 
