@@ -116,8 +116,10 @@ fn print_rows(TrajectoryOutput { steps, stats }: &TrajectoryOutput) {
     );
 }
 
-/// Reads a CSV of numbers with `width` columns (a first line that is not numeric is a
-/// header and is skipped; blank lines and lines starting with `#` are ignored).
+/// Reads a CSV of numbers with `width` columns (blank lines and lines starting with `#`
+/// are ignored; the first other line is a header, and skipped, if none of its fields is
+/// a number: a row of `NaN` or `inf` is data, and an error; a UTF-8 byte-order mark is
+/// dropped).
 ///
 /// # Errors
 /// [`Error::Input`] naming the file, line and column of every bad field.
@@ -131,26 +133,33 @@ fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Erro
         );
         Error::Input(v)
     })?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut rows = Vec::new();
     let mut v = Violations::default();
+    let mut first = true;
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let header = first && fields.iter().all(|f| f.parse::<f64>().is_err());
+        first = false;
+        if header {
+            continue;
+        }
         let parsed: Vec<Option<f64>> = fields
             .iter()
             .map(|f| f.parse::<f64>().ok().filter(|x| x.is_finite()))
             .collect();
-        if rows.is_empty() && v.0.is_empty() && parsed.iter().all(Option::is_none) {
-            continue; // header
-        }
         let at = |c: usize| format!("{}:{}:{}", path.display(), i + 1, c + 1);
         if fields.len() != width {
             v.push(
                 at(0),
-                format!("{} columns", fields.len()),
+                match fields.len() {
+                    1 => "1 column".to_string(),
+                    n => format!("{n} columns"),
+                },
                 &format!("{width} columns: {what}"),
             );
             continue;
@@ -215,6 +224,36 @@ mod tests {
             msg.contains("poses.csv:3:1 = 3 columns: expected 6 columns"),
             "{msg}"
         );
+        // Only the first line can be a header: a row of NaN is data, and a second
+        // non-numeric line is an error, not another header.
+        std::fs::write(&path, "NaN,NaN,NaN,NaN,NaN,NaN\n0,0,0,0,0,0\n").unwrap();
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.csv:1:1 = NaN: expected a finite number"),
+            "{msg}"
+        );
+        std::fs::write(&path, "a,b,c,d,e,f\ng,h,i,j,k,l\n0,0,0,0,0,0\n").unwrap();
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.csv:2:1 = g: expected a finite number"),
+            "{msg}"
+        );
+        // Another separator: the second line has one column.
+        std::fs::write(&path, "x;y;z;rx;ry;rz\n0;0;0;0;0;0\n").unwrap();
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("poses.csv:2:1 = 1 column: expected 6 columns"),
+            "{msg}"
+        );
+        // A byte-order mark before the first row.
+        std::fs::write(&path, "\u{feff}0,0,0,0,0,0\n").unwrap();
+        assert_eq!(read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap().len(), 1);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
