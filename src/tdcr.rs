@@ -9,7 +9,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::design::{MAX_TENDONS, Tdcr};
-use crate::error::{Error, SolveError, Violations};
+use crate::error::{Error, MAX_FRAME_DRIFT, SolveError, Violations, frame_drift};
 use crate::input_range::{diverged_if_non_finite, tdcr_inputs};
 use crate::newton::{
     self, NewtonReport, NewtonScratch, NewtonSettings, NonlinearSystem, RowScales,
@@ -128,7 +128,8 @@ impl TdcrSolver {
     ///
     /// # Errors
     /// [`Error::Input`] for bad control values; [`Error::Solve`] if Newton fails, with
-    /// the residual norm and iteration count.
+    /// the residual norm and iteration count, or if the solution's integration does not
+    /// resolve the leg ([`SolveError::UnderResolved`]: a tip frame off a rotation).
     pub fn solve(
         &mut self,
         control: &TendonControl,
@@ -165,6 +166,11 @@ impl TdcrSolver {
             &mut end,
             Some(&mut shape),
         )?;
+        let drift = frame_drift(&end.r);
+        if drift.is_nan() || drift > MAX_FRAME_DRIFT {
+            let steps = self.model.intervals.iter().map(|iv| iv.steps).sum();
+            return Err(Error::Solve(SolveError::UnderResolved { drift, steps }));
+        }
         Ok(TdcrSolution {
             tip: Frame {
                 position: end.p,

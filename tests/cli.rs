@@ -146,6 +146,32 @@ fn a_failed_solve_exits_1_with_residual_and_iterations() {
         e.contains("did not converge: residual norm") && e.contains("after 1 iterations"),
         "{e}"
     );
+    // In JSON the failure is an object on stdout, as for fk and ik.
+    let o = tdpcr(&[
+        "tdcr",
+        &robot(),
+        "--displacements",
+        "-0.005,0.005",
+        "--max-iterations",
+        "1",
+        "--format",
+        "json",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["converged"], false);
+    assert_eq!(v["stop_reason"], "iteration_limit");
+    assert_eq!(v["iterations"], 1);
+    // A leg the integration steps cannot follow: an error, not a frame off a rotation.
+    let o = tdpcr(&["tdcr", &robot(), "--tensions", "40,0", "--format", "json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["converged"], false);
+    let e = v["error"].as_str().unwrap();
+    assert!(
+        e.contains("off a rotation") && e.contains("raise leg.integration_steps"),
+        "{e}"
+    );
 }
 
 #[test]

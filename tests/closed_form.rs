@@ -277,3 +277,49 @@ fn the_default_step_count_is_accurate_to_a_millionth_of_the_length() {
         robot.leg.integration_steps
     );
 }
+
+/// A leg bent or twisted further than its integration steps can follow is an error
+/// (`SolveError::UnderResolved`), not a converged solution with a tip frame that is no
+/// rotation; with enough steps the same solve converges to a proper frame.
+#[test]
+fn a_leg_the_steps_cannot_follow_is_an_under_resolved_error() {
+    use tdpcr::error::{Error, MAX_FRAME_DRIFT, SolveError, frame_drift};
+    let robot = reference_tdcr();
+    let pulls = [
+        (
+            TendonControl::Tension(vec![40.0, 0.0]),
+            TipWrench::default(),
+        ),
+        (
+            TendonControl::Tension(vec![0.0, 0.0]),
+            TipWrench {
+                force: Vector3::zeros(),
+                moment: Vector3::new(0.0, 0.0, 0.3),
+            },
+        ),
+    ];
+    for (control, w) in &pulls {
+        match TdcrSolver::new(&robot).solve(control, w, None) {
+            Err(Error::Solve(SolveError::UnderResolved { drift, steps })) => {
+                assert!(drift > MAX_FRAME_DRIFT, "{drift}");
+                assert_eq!(steps, robot.leg.integration_steps);
+            }
+            other => panic!("{control:?}: expected UnderResolved, got {other:?}"),
+        }
+    }
+    let mut fine = robot.clone();
+    fine.leg.integration_steps = 200;
+    let sol = TdcrSolver::new(&fine)
+        .solve(&pulls[0].0, &pulls[0].1, None)
+        .unwrap();
+    assert!(frame_drift(&sol.tip.rotation) < 1e-6);
+    // A strong but resolved pull (10 N) stays a solution at the default steps.
+    let sol = TdcrSolver::new(&robot)
+        .solve(
+            &TendonControl::Tension(vec![10.0, 0.0]),
+            &TipWrench::default(),
+            None,
+        )
+        .unwrap();
+    assert!(frame_drift(&sol.tip.rotation) <= MAX_FRAME_DRIFT);
+}

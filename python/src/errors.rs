@@ -59,6 +59,7 @@ fn convergence_error(py: Python<'_>, e: &SolveError, message: String) -> PyErr {
         } => (reason.as_str(), Some(*residual_norm), Some(*iterations)),
         SolveError::NonFinite { .. } => ("non_finite", None, None),
         SolveError::Diverged { .. } => ("diverged", None, None),
+        SolveError::UnderResolved { .. } => ("under_resolved", None, None),
         SolveError::TrajectoryStepsFailed { .. } => ("trajectory_steps_failed", None, None),
     };
     let err = ConvergenceError::new_err(message);

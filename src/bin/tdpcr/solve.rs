@@ -71,20 +71,6 @@ impl ParallelOutput {
     }
 }
 
-#[derive(Serialize)]
-struct FailureOutput {
-    converged: bool,
-    error: String,
-    iterations: Option<usize>,
-    residual_norm: Option<f64>,
-    /// Why Newton stopped, as a stable snake_case name (`tdpcr::StopReason`).
-    stop_reason: Option<tdpcr::StopReason>,
-    /// When the solve diverged: the inputs beyond their natural scale, largest factor
-    /// first (empty if none is); absent otherwise.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    diverged_inputs: Option<Vec<tdpcr::error::OutOfRange>>,
-}
-
 /// A solver configured from the shared options, and the extra wrench.
 pub fn prepare(
     design: &Path,
@@ -149,30 +135,7 @@ pub fn report(
     let sol = match result {
         Ok(sol) => sol,
         Err(e) => {
-            if let (Format::Json, Error::Solve(se)) = (format, &e) {
-                let (iterations, residual_norm, stop_reason) = match se {
-                    tdpcr::SolveError::NotConverged {
-                        iterations,
-                        residual_norm,
-                        reason,
-                        ..
-                    } => (Some(*iterations), Some(*residual_norm), Some(*reason)),
-                    _ => (None, None, None),
-                };
-                let diverged_inputs = match se {
-                    tdpcr::SolveError::Diverged { inputs, .. } => Some(inputs.clone()),
-                    _ => None,
-                };
-                let out = FailureOutput {
-                    converged: false,
-                    error: e.to_string(),
-                    iterations,
-                    residual_norm,
-                    stop_reason,
-                    diverged_inputs,
-                };
-                output::print_json(&out);
-            }
+            output::print_solve_failure(format, &e);
             return Err(e);
         }
     };

@@ -38,7 +38,9 @@ pub fn run(args: &TdcrArgs) -> Result<(), Error> {
     };
     let mut solver = TdcrSolver::new(&robot);
     args.newton.apply(&mut solver.settings)?;
-    let sol = solver.solve(&control, &wrench, None)?;
+    let sol = solver
+        .solve(&control, &wrench, None)
+        .inspect_err(|e| output::print_solve_failure(args.format, e))?;
     let out = TdcrOutput {
         tip_position: sol.tip.position.into(),
         tip_rotation: rows(&sol.tip.rotation),
