@@ -62,6 +62,21 @@ pub fn write_atomically_with(
     result.map_err(error)
 }
 
+/// Whether [`write_atomically`] could replace `path`: an error (as the write's) if it,
+/// or the file a symbolic link names, exists and is not a regular file. For checks
+/// before a long computation whose results go there.
+///
+/// # Errors
+/// [`WriteError`] with the path and the reason.
+pub fn check_target(path: &Path) -> Result<(), WriteError> {
+    regular_file_target(path)
+        .map(|_| ())
+        .map_err(|source| WriteError {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
 /// The file an atomic write of `path` replaces: `path` itself, or the file a symbolic
 /// link names; an error if that exists and is not a regular file.
 fn regular_file_target(path: &Path) -> io::Result<PathBuf> {

@@ -1284,3 +1284,44 @@ mod trajectory_limits {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// `workspace --out` is checked before the sweep: a file where the directory should be,
+/// or a directory where one of its files should be, is refused at once (exit 2), and
+/// nothing is written.
+#[test]
+fn workspace_checks_its_output_directory_before_sweeping() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-out-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let sweep = |out: &std::path::Path| {
+        tdpcr(&[
+            "workspace",
+            &design(),
+            "--z-range=-0.003,0",
+            "--angle-step",
+            "0.5",
+            "--out",
+            &out.display().to_string(),
+        ])
+    };
+    let o = sweep(&file);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("is not a directory"), "{}", stderr(&o));
+    let out = dir.join("out");
+    std::fs::create_dir_all(out.join("summary.json")).unwrap();
+    let o = sweep(&out);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("summary.json is a directory"),
+        "{}",
+        stderr(&o)
+    );
+    let names: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+    assert_eq!(
+        names.len(),
+        1,
+        "only the directory that was there: {names:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use crate::decimal::{push_display, push_lower_exp};
 use crate::error::Error;
-use crate::output::{WriteError, write_atomically, write_atomically_with};
+use crate::output::{WriteError, check_target, write_atomically, write_atomically_with};
 use crate::workspace::{WorkspaceMap, WorkspacePoint};
 
 /// The CSV header: `x,y,z`, `q1..qn`, `tau_<leg>_<tendon>` (1-based), `min_tension`, every
@@ -145,10 +145,39 @@ fn write_csv_line(out: &mut String, p: &WorkspacePoint, digits: &mut zmij::Buffe
 /// # Errors
 /// [`Error::Output`] naming `dir`.
 pub fn create_output_dir(dir: &Path) -> Result<(), Error> {
-    fs::create_dir_all(dir).map_err(|source| Error::Output {
+    let error = |source| Error::Output {
         path: dir.to_path_buf(),
         source,
-    })
+    };
+    if fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+        return Err(error(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "it exists and is not a directory: expected a directory or a new directory's path",
+        )));
+    }
+    fs::create_dir_all(dir).map_err(error)
+}
+
+/// Makes `dir` ready for a sweep's files before the sweep: creates it (and its parents)
+/// if missing, checks that a file can be created in it, and that none of `names` exists
+/// there as anything but a regular file, so that a sweep never runs for minutes to fail
+/// at its first write or leave a mixed set of files.
+///
+/// # Errors
+/// [`Error::Output`] naming the directory or the file.
+pub fn prepare_output_dir(dir: &Path, names: &[&str]) -> Result<(), Error> {
+    create_output_dir(dir)?;
+    let probe = dir.join(format!(".tdpcr-probe.{}", std::process::id()));
+    fs::File::create(&probe)
+        .and_then(|_| fs::remove_file(&probe))
+        .map_err(|source| Error::Output {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    for name in names {
+        check_target(&dir.join(name))?;
+    }
+    Ok(())
 }
 
 /// Writes `points.csv`, `summary.json` and (with the `plots` feature) the slice figures of

@@ -64,6 +64,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
             );
             Error::Input(v)
         })?;
+    files::prepare_output_dir(&args.out, &["points.csv", "summary.json", "workspace.html"])?;
     let bar = if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(0);
         bar.set_style(
@@ -89,7 +90,6 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
     // The files and the 3D view side by side on the sweep's threads: from the end of the
     // reference design's Δ = 3 mm sweep to the exit 2.4–3.0 s before, 1.9–2.2 s after
     // (2 cores).
-    files::create_output_dir(&args.out)?;
     let (written, view) = pool.install(|| {
         rayon::join(
             || files::write_outputs(&map, &args.out),
