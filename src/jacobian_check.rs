@@ -10,6 +10,7 @@ use crate::boundary::{
     BoundaryJacobians, BoundaryScratch, FiniteDifference, boundary_derivatives,
     boundary_derivatives_fd,
 };
+use crate::error::{Error, SolveError};
 use crate::kinetostatics::Solver;
 use crate::rod::Wrench;
 use crate::sampling::seeded_actuations;
@@ -42,6 +43,23 @@ pub struct JacobianCheck {
     pub time_fd_forward_us: f64,
     /// Mean time of one central-difference Jacobian \[µs\].
     pub time_fd_central_us: f64,
+    /// The samples that did not solve (or whose blocks could not be evaluated), in
+    /// order, and why.
+    pub failures: Vec<SampleFailure>,
+    /// The first failure's error, for a caller that has nothing else to report.
+    #[serde(skip)]
+    pub first_error: Option<SolveError>,
+}
+
+/// A sample of [`jacobian_check`] that was not compared.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SampleFailure {
+    /// Index of the sample (0-based).
+    pub sample: usize,
+    /// Its actuation \[m\].
+    pub q: Vec<f64>,
+    /// Why it failed.
+    pub error: String,
 }
 
 fn rel_error(a: &DMatrix<f64>, fd: &DMatrix<f64>) -> f64 {
@@ -70,44 +88,50 @@ pub fn jacobian_check(solver: &mut Solver, samples: usize, seed: u64) -> Jacobia
         b_u: 0.0,
     };
     let (mut t_exact, mut t_fwd, mut t_cen, mut solved) = (0.0, 0.0, 0.0, 0usize);
-    for q in seeded_actuations(&model, samples, seed) {
+    let mut failures = Vec::new();
+    let mut first_error = None;
+    for (sample, q) in seeded_actuations(&model, samples, seed).iter().enumerate() {
         let q: Vec<f64> = q.iter().map(|x| 0.5 * x).collect();
-        let Ok(sol) = solver.solve_fk(&q, &Wrench::default(), None) else {
-            continue;
+        let mut compared = || -> Result<[Instant; 4], Error> {
+            let sol = solver.solve_fk(&q, &Wrench::default(), None)?;
+            let pose = sol.state.pose();
+            let p = sol.state.boundary_point(&pose, &wrench);
+            let start = Instant::now();
+            boundary_derivatives(&model, &mut sc, &p, &mut r, &mut exact)?;
+            let t1 = Instant::now();
+            boundary_derivatives_fd(
+                &model,
+                &mut sc,
+                &p,
+                FiniteDifference::Forward,
+                &mut r,
+                &mut fd,
+            )?;
+            let t2 = Instant::now();
+            boundary_derivatives_fd(
+                &model,
+                &mut sc,
+                &p,
+                FiniteDifference::Central,
+                &mut r,
+                &mut fd,
+            )?;
+            Ok([start, t1, t2, Instant::now()])
         };
-        let pose = sol.state.pose();
-        let p = sol.state.boundary_point(&pose, &wrench);
-        let start = Instant::now();
-        if boundary_derivatives(&model, &mut sc, &p, &mut r, &mut exact).is_err() {
-            continue;
-        }
-        let t1 = Instant::now();
-        if boundary_derivatives_fd(
-            &model,
-            &mut sc,
-            &p,
-            FiniteDifference::Forward,
-            &mut r,
-            &mut fd,
-        )
-        .is_err()
-        {
-            continue;
-        }
-        let t2 = Instant::now();
-        if boundary_derivatives_fd(
-            &model,
-            &mut sc,
-            &p,
-            FiniteDifference::Central,
-            &mut r,
-            &mut fd,
-        )
-        .is_err()
-        {
-            continue;
-        }
-        let t3 = Instant::now();
+        let [start, t1, t2, t3] = match compared() {
+            Ok(times) => times,
+            Err(e) => {
+                if let (None, Error::Solve(se)) = (&first_error, &e) {
+                    first_error = Some(se.clone());
+                }
+                failures.push(SampleFailure {
+                    sample,
+                    q,
+                    error: e.to_string(),
+                });
+                continue;
+            }
+        };
         t_exact += (t1 - start).as_secs_f64();
         t_fwd += (t2 - t1).as_secs_f64();
         t_cen += (t3 - t2).as_secs_f64();
@@ -131,5 +155,7 @@ pub fn jacobian_check(solver: &mut Solver, samples: usize, seed: u64) -> Jacobia
         time_exact_us: mean(t_exact),
         time_fd_forward_us: mean(t_fwd),
         time_fd_central_us: mean(t_cen),
+        failures,
+        first_error,
     }
 }

@@ -1325,3 +1325,40 @@ fn workspace_checks_its_output_directory_before_sweeping() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `jacobian-check`: a sample count out of range is bad input (it printed NaN ratios for
+/// 0); samples that do not solve are listed with their reasons, and a design none of
+/// whose samples solves fails with the first sample's error (exit 1).
+#[test]
+fn jacobian_check_reports_samples_it_could_not_compare() {
+    let o = tdpcr(&["jacobian-check", &design(), "--samples", "0"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--samples = 0: expected 1 to 10000 configurations"),
+        "{}",
+        stderr(&o)
+    );
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-jc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let stiff = dir.join("stiff.ron");
+    let text = std::fs::read_to_string(design()).unwrap();
+    assert!(text.contains("youngs_modulus: 54e9"));
+    std::fs::write(
+        &stiff,
+        text.replace("youngs_modulus: 54e9", "youngs_modulus: 1e30"),
+    )
+    .unwrap();
+    let o = tdpcr(&[
+        "jacobian-check",
+        &stiff.display().to_string(),
+        "--samples",
+        "2",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("sample 0: solve did not converge") && e.contains("sample 1: "),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
