@@ -10,7 +10,7 @@
 use nalgebra::Rotation3;
 use serde::Serialize;
 
-use crate::error::Error;
+use crate::error::{Error, StopReason};
 use crate::kinetostatics::{RobotState, Solver};
 use crate::model::Pose;
 use crate::rod::Wrench;
@@ -31,10 +31,11 @@ pub struct StepResult {
     pub step: usize,
     /// Whether Newton converged.
     pub converged: bool,
-    /// Platform position \[m\] (of the solution, or of the target if not converged).
-    pub position: [f64; 3],
-    /// Platform rotation vector \[rad\].
-    pub rotvec: [f64; 3],
+    /// Platform position \[m\]: of the solution; of the target where an IK step did not
+    /// converge; `None` where an FK step did not (it has no pose).
+    pub position: Option<[f64; 3]>,
+    /// Platform rotation vector \[rad\] (as `position`).
+    pub rotvec: Option<[f64; 3]>,
     /// Actuation \[m\].
     pub q: Vec<f64>,
     /// Newton iterations.
@@ -44,6 +45,9 @@ pub struct StepResult {
     pub residual_norm: Option<f64>,
     /// Why the step failed (`None` when it converged).
     pub error: Option<String>,
+    /// Why Newton stopped, where a failed step's Newton run stopped short of the
+    /// tolerance (`None` when it converged, diverged or failed otherwise).
+    pub stop_reason: Option<StopReason>,
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
 }
@@ -108,12 +112,13 @@ pub fn run_trajectory_from(
                 let r = StepResult {
                     step,
                     converged: true,
-                    position: sol.state.position,
-                    rotvec: sol.state.rotvec,
+                    position: Some(sol.state.position),
+                    rotvec: Some(sol.state.rotvec),
                     q: sol.state.q.clone(),
                     iterations: sol.report.iterations,
                     residual_norm: Some(sol.report.residual_norm),
                     error: None,
+                    stop_reason: None,
                     solve_time_us: sol.solve_time_us,
                 };
                 state = Some(sol.state);
@@ -122,23 +127,30 @@ pub fn run_trajectory_from(
             Err(e) => {
                 // Recovery rule: the next step starts cold, not from a stale solution.
                 state = None;
-                let (iterations, residual_norm) = match &e {
+                let (iterations, residual_norm, stop_reason) = match &e {
                     Error::Solve(crate::SolveError::NotConverged {
                         iterations,
                         residual_norm,
+                        reason,
                         ..
-                    }) => (*iterations, Some(*residual_norm).filter(|r| r.is_finite())),
-                    _ => (0, None),
+                    }) => (
+                        *iterations,
+                        Some(*residual_norm).filter(|r| r.is_finite()),
+                        Some(*reason),
+                    ),
+                    _ => (0, None, None),
                 };
                 let (position, rotvec, q) = match targets {
                     Targets::Poses(p) => (
-                        p[step].position.into(),
-                        Rotation3::from_matrix_unchecked(p[step].rotation)
-                            .scaled_axis()
-                            .into(),
+                        Some(p[step].position.into()),
+                        Some(
+                            Rotation3::from_matrix_unchecked(p[step].rotation)
+                                .scaled_axis()
+                                .into(),
+                        ),
                         Vec::new(),
                     ),
-                    Targets::Actuations(q) => ([0.0; 3], [0.0; 3], q[step].clone()),
+                    Targets::Actuations(q) => (None, None, q[step].clone()),
                 };
                 StepResult {
                     step,
@@ -149,6 +161,7 @@ pub fn run_trajectory_from(
                     iterations,
                     residual_norm,
                     error: Some(e.to_string()),
+                    stop_reason,
                     solve_time_us: elapsed,
                 }
             }
@@ -194,12 +207,13 @@ mod tests {
         let step = |t: f64, ok: bool| StepResult {
             step: t as usize,
             converged: ok,
-            position: [0.0; 3],
-            rotvec: [0.0; 3],
+            position: ok.then_some([0.0; 3]),
+            rotvec: ok.then_some([0.0; 3]),
             q: vec![],
             iterations: 2,
             residual_norm: None,
             error: (!ok).then(|| "why".to_string()),
+            stop_reason: None,
             solve_time_us: t,
         };
         let s = stats_of(&[

@@ -1362,3 +1362,34 @@ fn jacobian_check_reports_samples_it_could_not_compare() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A failed trajectory step says why Newton stopped (`stop_reason`), and a failed FK
+/// step has no pose (null in JSON, empty fields in the text rows), where it showed a
+/// made-up one at the origin.
+#[test]
+fn failed_trajectory_steps_carry_their_stop_reason_and_no_made_up_pose() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-traj-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let q = dir.join("q.csv");
+    std::fs::write(&q, "0,0,0,0,0,0\n1,1,1,1,1,1\n").unwrap();
+    let q = q.display().to_string();
+    let o = tdpcr(&["trajectory", &design(), "--fk", &q, "--format", "json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let failed = &v["steps"][1];
+    assert_eq!(failed["converged"], false);
+    assert!(
+        failed["position"].is_null() && failed["rotvec"].is_null(),
+        "{failed}"
+    );
+    assert_eq!(failed["stop_reason"], "iteration_limit");
+    assert!(v["steps"][0]["stop_reason"].is_null());
+    let o = tdpcr(&["trajectory", &design(), "--fk", &q]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.lines()
+            .any(|l| l.starts_with("1,false,60,") && l.contains(",,,,,,1;1;1")),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -199,8 +199,8 @@ pub fn stack_steps<'py>(
         if s.converged {
             stacked.set(
                 k,
-                &s.position,
-                &s.rotvec,
+                &s.position.unwrap_or_default(),
+                &s.rotvec.unwrap_or_default(),
                 &s.q,
                 s.iterations,
                 s.residual_norm.unwrap_or(0.0),

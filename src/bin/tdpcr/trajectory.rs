@@ -85,20 +85,23 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
 /// stderr.
 fn print_rows(TrajectoryOutput { steps, stats }: &TrajectoryOutput) {
     println!("step,converged,iterations,solve_time_us,x,y,z,rx,ry,rz,q");
+    // A failed FK step has no pose: its six fields are empty.
+    let fields = |v: Option<[f64; 3]>| {
+        v.map_or_else(
+            || ",,".to_string(),
+            |v| format!("{},{},{}", v[0], v[1], v[2]),
+        )
+    };
     for s in steps {
         let q: Vec<String> = s.q.iter().map(|x| x.to_string()).collect();
         println!(
-            "{},{},{},{:.1},{},{},{},{},{},{},{}",
+            "{},{},{},{:.1},{},{},{}",
             s.step,
             s.converged,
             s.iterations,
             s.solve_time_us,
-            s.position[0],
-            s.position[1],
-            s.position[2],
-            s.rotvec[0],
-            s.rotvec[1],
-            s.rotvec[2],
+            fields(s.position),
+            fields(s.rotvec),
             q.join(";")
         );
     }
