@@ -571,7 +571,23 @@ fn workspace_writes_points_summary_and_figures() {
         err.contains("--z-range = 1 values: expected 2 values ZMIN,ZMAX [m]"),
         "{err}"
     );
-    assert!(err.contains("--threads = 0: expected >= 1"), "{err}");
+    assert!(err.contains("--threads = 0: expected 1 to 1024"), "{err}");
+    // A z-range without a plane z = k·Δ in it sweeps nothing: bad input.
+    let o = tdpcr(&[
+        "workspace",
+        &design(),
+        "--z-range=0.001,0.002",
+        "--step",
+        "0.01",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("z_range = 0.001,0.002: expected a range that holds a plane"),
+        "{}",
+        stderr(&o)
+    );
     let o = tdpcr(&[
         "workspace",
         &design(),
@@ -760,7 +776,22 @@ fn analyze_of_an_fk_solution_prints_text_and_reports_bad_input() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("type_ii_threshold = -1: expected >= 0 and finite"),
+        stderr(&o).contains("--type-ii-threshold = -1: expected >= 0 and finite"),
+        "{}",
+        stderr(&o)
+    );
+    // --rotvec belongs to --position: with --q it was silently ignored.
+    let o = tdpcr(&[
+        "analyze",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--rotvec",
+        "1,0,0",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--rotvec = given with --q"),
         "{}",
         stderr(&o)
     );

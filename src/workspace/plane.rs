@@ -14,7 +14,7 @@ use crate::newton::NewtonSettings;
 use crate::rod::Wrench;
 
 use super::cells::{WorkspacePoint, representatives};
-use super::ends::{PathEnd, RayEnds};
+use super::ends::{End, PathEnd, RayEnds};
 use super::metrics::{PointMetrics, tensions};
 use super::predict::PREDICTOR_POINTS;
 use super::settings::{DEFAULT_PROBE_ITERATIONS, WorkspaceSettings};
@@ -62,11 +62,23 @@ pub(super) fn reach_planes(
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state, work) {
         Ok(s) if s.end(settings.collisions).is_none() => s,
-        _ => {
+        invalid => {
+            let end = match invalid {
+                Ok(s) => s.end(settings.collisions),
+                Err(end) => Some(end),
+            };
+            let why = match end {
+                Some(End::Limits) => "outside the actuation limits",
+                Some(End::Collision) => "in collision",
+                Some(End::Unstable) => "an unstable equilibrium",
+                _ => "not analysable",
+            };
             return Ok(Planes {
                 origins: Vec::new(),
                 ends: [PathEnd::InvalidHome; 2],
-                error: None,
+                error: Some(format!(
+                    "the home configuration (the platform at the origin) is {why}: nothing was swept"
+                )),
             });
         }
     };

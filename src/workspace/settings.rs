@@ -164,6 +164,15 @@ impl WorkspaceSettings {
                 format!("{lo},{hi}"),
                 &format!("at most {MAX_COUNT} planes of step {} m", self.step),
             );
+        } else if self.step.is_finite() && self.step > 0.0 && self.plane_indices().is_empty() {
+            v.push(
+                "z_range",
+                format!("{lo},{hi}"),
+                &format!(
+                    "a range that holds a plane z = k · step (step {} m), or none is swept",
+                    self.step
+                ),
+            );
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
             v.push("tolerance", self.tolerance, "> 0");

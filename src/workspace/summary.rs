@@ -237,8 +237,9 @@ pub struct WorkspaceSummary {
     /// Why rays ended.
     pub ray_ends: RayEnds,
     /// The first error (the path first, then planes from the lowest and rays in order)
-    /// that ended a ray or the path other than a solve that did not converge; `None` when
-    /// there was none.
+    /// that ended a ray or the path other than a solve that did not converge, or why the
+    /// home configuration is invalid (`path_ends` both `invalid_home`); `None` when there
+    /// was none.
     pub first_error: Option<String>,
     /// IK solves (Newton runs, including failed ones and retries).
     pub solves: usize,

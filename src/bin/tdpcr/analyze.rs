@@ -57,6 +57,27 @@ fn nested_rows(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
 
 /// Runs `tdpcr analyze`.
 pub fn run(args: &AnalyzeArgs) -> Result<(), Error> {
+    // The flags are checked before anything is solved.
+    let mut v = tdpcr::error::Violations::default();
+    if args.q.is_some() && args.rotvec.is_some() {
+        v.push(
+            "--rotvec",
+            "given with --q",
+            "only with --position (FK solves for the orientation)",
+        );
+    }
+    for (flag, x) in [
+        ("--type-i-threshold", args.type_i_threshold),
+        ("--type-ii-threshold", args.type_ii_threshold),
+        ("--leg-threshold", args.leg_threshold),
+    ] {
+        if let Some(x) = x.filter(|x| !(x.is_finite() && *x >= 0.0)) {
+            v.push(flag, x, ">= 0 and finite");
+        }
+    }
+    if !v.0.is_empty() {
+        return Err(Error::Input(v));
+    }
     let (mut solver, wrench, init) = prepare(&args.design, &args.solve)?;
     args.redundancy.apply(&mut solver)?;
     let defaults = AnalysisSettings::default();
