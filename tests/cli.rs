@@ -193,6 +193,23 @@ fn malformed_and_invalid_files_exit_2_with_location() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("6-DoF"));
+    // `validate` takes a file by what parses, not by how its first line is spelled: a
+    // TDPCR file that `fk` loads is one with a space before its parenthesis or with no
+    // struct name at all; a broken TDCR file gets the TDCR error.
+    let text = std::fs::read_to_string(design()).unwrap();
+    for (name, edited) in [
+        ("spaced.ron", text.replacen("Tdpcr(", "Tdpcr (", 1)),
+        ("anonymous.ron", text.replacen("Tdpcr(", "(", 1)),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, edited).unwrap();
+        let o = tdpcr(&["validate", path.to_str().unwrap()]);
+        assert!(o.status.success(), "{name}: {}", stderr(&o));
+        assert!(String::from_utf8_lossy(&o.stdout).contains("valid TDPCR"));
+    }
+    let o = tdpcr(&["validate", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("broken.ron:3:"), "{}", stderr(&o));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -12,27 +12,41 @@ pub fn run(args: &ValidateArgs) -> Result<(), Error> {
         source,
     })?;
     let source = args.design.display().to_string();
-    if text
-        .trim_start_matches(|c: char| c.is_whitespace())
-        .lines()
-        .any(|l| l.trim_start().starts_with("Tdpcr("))
-    {
-        let d = Tdpcr::from_ron_str(&text, &source)?;
+    // The file's kind by what parses: a TDPCR file that parses (valid or not) is one, and
+    // so is a TDCR file; where neither parses, the error of the kind the text names.
+    let parallel = Tdpcr::from_ron_str(&text, &source);
+    if !matches!(parallel, Err(tdpcr::DesignError::Parse { .. })) {
+        let d = parallel?;
         println!(
             "{source}: valid TDPCR, {}-DoF ({} tendons per leg), leg length {} m",
             d.n_actuators(),
             d.leg.tendons.len(),
             d.leg.length
         );
-    } else {
-        let r = Tdcr::from_ron_str(&text, &source)?;
-        println!(
-            "{source}: valid TDCR, {} tendons, length {} m, {} integration steps ({:?})",
-            r.leg.tendons.len(),
-            r.leg.length,
-            r.leg.integration_steps,
-            r.leg.integrator
-        );
+        return Ok(());
     }
-    Ok(())
+    match Tdcr::from_ron_str(&text, &source) {
+        Ok(r) => {
+            println!(
+                "{source}: valid TDCR, {} tendons, length {} m, {} integration steps ({:?})",
+                r.leg.tendons.len(),
+                r.leg.length,
+                r.leg.integration_steps,
+                r.leg.integrator
+            );
+            Ok(())
+        }
+        Err(e @ tdpcr::DesignError::Invalid { .. }) => Err(e.into()),
+        Err(single) => {
+            let names_parallel = text.contains("Tdpcr") || text.contains("platform");
+            Err(if names_parallel {
+                parallel
+            } else {
+                Err(single)
+            }
+            .err()
+            .expect("both failed")
+            .into())
+        }
+    }
 }
