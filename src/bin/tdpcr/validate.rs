@@ -39,13 +39,10 @@ pub fn run(args: &ValidateArgs) -> Result<(), Error> {
         Err(e @ tdpcr::DesignError::Invalid { .. }) => Err(e.into()),
         Err(single) => {
             let names_parallel = text.contains("Tdpcr") || text.contains("platform");
-            Err(if names_parallel {
-                parallel
-            } else {
-                Err(single)
+            Err(match parallel {
+                Err(e) if names_parallel => e,
+                _ => single,
             }
-            .err()
-            .expect("both failed")
             .into())
         }
     }
