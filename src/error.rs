@@ -265,18 +265,25 @@ pub fn frame_drift(r: &nalgebra::Matrix3<f64>) -> f64 {
 fn diverged_message(inputs: &[OutOfRange], stage: &str) -> String {
     let mut s = String::from("the solve diverged");
     if inputs.is_empty() {
-        s.push_str(" (no input is beyond the design's natural scales)");
+        // Nothing the caller asked for is large for this design: the design itself, or a
+        // warm start, is the suspect.
+        s.push_str(
+            ": no input is beyond the design's natural scales, so check the design's own \
+             values (moduli, radii, masses, stiffnesses, lengths: one far outside its \
+             physical range makes the rod equations overflow) and the warm start, if any. \
+             Detail: ",
+        );
     } else {
         for (k, i) in inputs.iter().enumerate() {
             s.push_str(if k == 0 { ": " } else { "; " });
             s.push_str(&i.to_string());
         }
+        s.push_str(
+            ". Try a smaller step: solve an input nearer the design's range first, then \
+             approach the target in steps, each warm-started from the last solution \
+             (CLI: --init of fk, ik, analyze and trajectory). Detail: ",
+        );
     }
-    s.push_str(
-        ". Try a smaller step: solve an input nearer the design's range first, then \
-         approach the target in steps, each warm-started from the last solution \
-         (CLI: --init of fk, ik, analyze and trajectory). Detail: ",
-    );
     s.push_str(&format!("non-finite value in {stage}"));
     s
 }
@@ -478,6 +485,17 @@ mod tests {
              Try a smaller step: solve an input nearer the design's range first, then \
              approach the target in steps, each warm-started from the last solution \
              (CLI: --init of fk, ik, analyze and trajectory). Detail: non-finite value in rod strain derivatives (eq. 5)"
+        );
+        // With no input beyond its scale the design's own values are the suspects, and
+        // a smaller step is no advice.
+        let e = SolveError::Diverged {
+            stage: "rod strain system (eq. 5)",
+            inputs: Vec::new(),
+        };
+        let text = e.to_string();
+        assert!(
+            text.contains("check the design's own values") && !text.contains("smaller step"),
+            "{text}"
         );
     }
 
