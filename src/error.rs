@@ -187,7 +187,7 @@ impl std::fmt::Display for StopReason {
 pub enum SolveError {
     /// Newton stopped without reaching the tolerance.
     #[error(
-        "solve did not converge: residual norm {residual_norm:.3e} (tolerance {tolerance:.1e}) after {iterations} iterations: {reason}"
+        "solve did not converge: residual norm {residual_norm:.3e} (tolerance {tolerance:.1e}) after {}: {reason}", counted(*iterations, "iteration")
     )]
     NotConverged {
         /// Newton iterations (Jacobian evaluations) performed.
@@ -259,6 +259,15 @@ pub fn frame_drift(r: &nalgebra::Matrix3<f64>) -> f64 {
     (r.transpose() * r - nalgebra::Matrix3::identity())
         .abs()
         .max()
+}
+
+/// `n` and the noun, singular for one: "1 value", "2 values" (for the error messages).
+pub fn counted(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 /// The message of [`SolveError::Diverged`].

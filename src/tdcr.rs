@@ -94,7 +94,7 @@ impl TdcrSolver {
         } else if values.len() != nt {
             v.push(
                 name,
-                format!("{} values", values.len()),
+                crate::error::counted(values.len(), "value"),
                 &format!("{nt} values, one per tendon"),
             );
         }

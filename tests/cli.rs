@@ -143,7 +143,7 @@ fn a_failed_solve_exits_1_with_residual_and_iterations() {
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(
-        e.contains("did not converge: residual norm") && e.contains("after 1 iterations"),
+        e.contains("did not converge: residual norm") && e.contains("after 1 iteration:"),
         "{e}"
     );
     // In JSON the failure is an object on stdout, as for fk and ik.
@@ -585,7 +585,7 @@ fn workspace_writes_points_summary_and_figures() {
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
     assert!(
-        err.contains("--z-range = 1 values: expected 2 values ZMIN,ZMAX [m]"),
+        err.contains("--z-range = 1 value: expected 2 values ZMIN,ZMAX [m]"),
         "{err}"
     );
     assert!(err.contains("--threads = 0: expected 1 to 1024"), "{err}");

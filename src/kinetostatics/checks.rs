@@ -17,7 +17,7 @@ pub(super) fn actuation_violations(solver: &Solver, q: &[f64]) -> Violations {
     if q.len() != n {
         v.push(
             "q",
-            format!("{} values", q.len()),
+            crate::error::counted(q.len(), "value"),
             &format!("{n} values: per leg [bend_x, (bend_y), translation]"),
         );
     }
@@ -86,15 +86,15 @@ pub(super) fn check_init(solver: &Solver, v: &mut Violations, init: Option<&Robo
         if s.q.len() != solver.model.n_actuators() {
             v.push(
                 "init.q",
-                format!("{} values", s.q.len()),
-                &format!("{} values", solver.model.n_actuators()),
+                crate::error::counted(s.q.len(), "value"),
+                &crate::error::counted(solver.model.n_actuators(), "value"),
             );
         }
         let ny = 3 * solver.model.n_leg_unknowns();
         if s.y_u.len() != ny {
             v.push(
                 "init.y_u",
-                format!("{} values", s.y_u.len()),
+                crate::error::counted(s.y_u.len(), "value"),
                 &format!("{ny} values"),
             );
         }

@@ -285,7 +285,7 @@ impl RedundancyArgs {
             if r.0.len() != n {
                 v.push(
                     "--reference",
-                    format!("{} values", r.0.len()),
+                    tdpcr::error::counted(r.0.len(), "value"),
                     &format!("{n} values: per leg [bend_x, (bend_y), translation]"),
                 );
             }

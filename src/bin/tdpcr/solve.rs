@@ -87,7 +87,7 @@ pub fn prepare(
         Some(w) => {
             v.push(
                 "--wrench",
-                format!("{} values", w.0.len()),
+                tdpcr::error::counted(w.0.len(), "value"),
                 "6 values FX,FY,FZ,MX,MY,MZ",
             );
             Wrench::default()

@@ -159,10 +159,7 @@ fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Erro
         if fields.len() != width {
             v.push(
                 at(0),
-                match fields.len() {
-                    1 => "1 column".to_string(),
-                    n => format!("{n} columns"),
-                },
+                tdpcr::error::counted(fields.len(), "column"),
                 &format!("{width} columns: {what}"),
             );
             continue;

@@ -18,9 +18,9 @@ pub fn run(args: &ValidateArgs) -> Result<(), Error> {
     if !matches!(parallel, Err(tdpcr::DesignError::Parse { .. })) {
         let d = parallel?;
         println!(
-            "{source}: valid TDPCR, {}-DoF ({} tendons per leg), leg length {} m",
+            "{source}: valid TDPCR, {}-DoF ({} per leg), leg length {} m",
             d.n_actuators(),
-            d.leg.tendons.len(),
+            tdpcr::error::counted(d.leg.tendons.len(), "tendon"),
             d.leg.length
         );
         return Ok(());
@@ -28,8 +28,8 @@ pub fn run(args: &ValidateArgs) -> Result<(), Error> {
     match Tdcr::from_ron_str(&text, &source) {
         Ok(r) => {
             println!(
-                "{source}: valid TDCR, {} tendons, length {} m, {} integration steps ({:?})",
-                r.leg.tendons.len(),
+                "{source}: valid TDCR, {}, length {} m, {} integration steps ({:?})",
+                tdpcr::error::counted(r.leg.tendons.len(), "tendon"),
                 r.leg.length,
                 r.leg.integration_steps,
                 r.leg.integrator

@@ -27,7 +27,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         Some(z) => {
             v.push(
                 "--z-range",
-                format!("{} values", z.0.len()),
+                tdpcr::error::counted(z.0.len(), "value"),
                 "2 values ZMIN,ZMAX [m]",
             );
             defaults.z_range
