@@ -29,11 +29,18 @@ impl fmt::Display for Violation {
 pub struct Violations(pub Vec<Violation>);
 
 impl Violations {
-    /// Records a violation.
+    /// Records a violation. A number whose decimal text is long (1e300 has 301 digits)
+    /// is written in exponent form.
     pub fn push(&mut self, field: impl Into<String>, value: impl fmt::Display, expected: &str) {
+        let mut value = value.to_string();
+        if value.len() > 24 {
+            if let Ok(x) = value.parse::<f64>() {
+                value = format!("{x:e}");
+            }
+        }
         self.0.push(Violation {
             field: field.into(),
-            value: value.to_string(),
+            value,
             expected: expected.to_string(),
         });
     }
@@ -504,6 +511,26 @@ mod tests {
         let text = e.to_string();
         assert!(
             text.contains("check the design's own values") && !text.contains("smaller step"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn long_numbers_are_written_in_exponent_form() {
+        let mut v = super::Violations::default();
+        v.push("alpha", 1e300, "in (0, pi/2) rad");
+        v.push("leg.backbone_radius", 1e-300, "> 0 m");
+        v.push("q[0]", 0.004, "finite");
+        v.push("name", "a long text that is no number at all", "short");
+        let text = v.to_string();
+        assert!(text.contains("alpha = 1e300: expected"), "{text}");
+        assert!(
+            text.contains("leg.backbone_radius = 1e-300: expected"),
+            "{text}"
+        );
+        assert!(text.contains("q[0] = 0.004: expected"), "{text}");
+        assert!(
+            text.contains("name = a long text that is no number at all"),
             "{text}"
         );
     }
