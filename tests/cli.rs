@@ -601,7 +601,7 @@ fn workspace_writes_points_summary_and_figures() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("z_range = 0.001,0.002: expected a range that holds a plane"),
+        stderr(&o).contains("--z-range = 0.001,0.002: expected a range that holds a plane"),
         "{}",
         stderr(&o)
     );
@@ -615,7 +615,7 @@ fn workspace_writes_points_summary_and_figures() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        stderr(&o).contains("step = -1: expected in [1e-5, 1] m"),
+        stderr(&o).contains("--step = -1: expected in [1e-5, 1] m"),
         "{}",
         stderr(&o)
     );

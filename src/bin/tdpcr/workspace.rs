@@ -55,7 +55,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         probe_iterations: args.probe_iterations,
         ..defaults
     };
-    settings.validate()?;
+    settings.validate().map_err(flag_names)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads.unwrap_or(0))
         .build()
@@ -140,4 +140,28 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
         println!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The settings' violations under the flags that set them (`step` as `--step`, …).
+fn flag_names(e: Error) -> Error {
+    const FLAGS: [(&str, &str); 7] = [
+        ("rotvec", "--rotvec"),
+        ("step", "--step"),
+        ("angle_step", "--angle-step"),
+        ("z_range", "--z-range"),
+        ("chord_contraction", "--chord-contraction"),
+        ("probe_iterations", "--probe-iterations"),
+        ("redundancy.reference", "--reference"),
+    ];
+    match e {
+        Error::Input(mut v) => {
+            for violation in &mut v.0 {
+                if let Some((_, flag)) = FLAGS.iter().find(|(f, _)| *f == violation.field) {
+                    violation.field = (*flag).to_string();
+                }
+            }
+            Error::Input(v)
+        }
+        e => e,
+    }
 }
