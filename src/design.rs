@@ -255,6 +255,20 @@ impl Leg {
         }
         check_non_negative(v, &f("disks.mass"), self.disks.mass, "kg");
         check_positive(v, &f("disks.radius"), self.disks.radius, "m");
+        // The disks and the backbone are no larger than the largest rod (a radius of
+        // 1e308 m overflowed the collision checks and the 3D views' coordinates).
+        for (field, radius) in [
+            ("disks.radius", self.disks.radius),
+            ("backbone_radius", self.backbone_radius),
+        ] {
+            if radius.is_finite() && radius > MAX_LEG_LENGTH {
+                v.push(
+                    f(field),
+                    radius,
+                    &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+                );
+            }
+        }
         check_positive(v, &f("tendon_stiffness"), self.tendon_stiffness, "N");
         if !(1..=100_000).contains(&self.integration_steps) {
             v.push(

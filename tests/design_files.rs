@@ -115,6 +115,12 @@ fn each_single_rule_is_enforced() {
         ("mass: 0.0003", "mass: -0.1", "leg.disks.mass"),
         ("count: 13", "count: 100000", "leg.disks.count"),
         ("radius: 0.006", "radius: 0.0", "leg.disks.radius"),
+        ("radius: 0.006", "radius: 1e308", "leg.disks.radius"),
+        (
+            "backbone_radius: 0.0005",
+            "backbone_radius: 20.0",
+            "leg.backbone_radius",
+        ),
         (
             "tendon_stiffness: 1000.0",
             "tendon_stiffness: 0.0",
