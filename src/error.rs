@@ -284,9 +284,10 @@ fn diverged_message(inputs: &[OutOfRange], stage: &str) -> String {
         // Nothing the caller asked for is large for this design: the design itself, or a
         // warm start, is the suspect.
         s.push_str(
-            ": no input is beyond the design's natural scales, so check the design's own \
-             values (moduli, radii, masses, stiffnesses, lengths: one far outside its \
-             physical range makes the rod equations overflow) and the warm start, if any. \
+            ": no actuation or load is beyond the design's natural scales, so check the \
+             target pose, if any (a platform metres away), then the design's own values \
+             (moduli, radii, masses, stiffnesses, lengths: one far outside its physical \
+             range makes the rod equations overflow) and the warm start, if any. \
              Detail: ",
         );
     } else {
@@ -502,15 +503,17 @@ mod tests {
              approach the target in steps, each warm-started from the last solution \
              (CLI: --init of fk, ik, analyze and trajectory). Detail: non-finite value in rod strain derivatives (eq. 5)"
         );
-        // With no input beyond its scale the design's own values are the suspects, and
-        // a smaller step is no advice.
+        // With no input beyond its scale the target and the design's own values are the
+        // suspects, and a smaller step is no advice.
         let e = SolveError::Diverged {
             stage: "rod strain system (eq. 5)",
             inputs: Vec::new(),
         };
         let text = e.to_string();
         assert!(
-            text.contains("check the design's own values") && !text.contains("smaller step"),
+            text.contains("check the target pose")
+                && text.contains("the design's own values")
+                && !text.contains("smaller step"),
             "{text}"
         );
     }

@@ -616,7 +616,10 @@ impl<'a> Search<'a> {
 
     /// Takes the records of the candidates asked for (any order; those not evaluated
     /// because the wall time ran out left out): the reference's, or the generation's,
-    /// which is then told to CMA-ES; a generation cut short ends the search.
+    /// which is then told to CMA-ES. The records of a generation may come in several
+    /// calls: until all are in (or the wall time has run out, which ends the search with
+    /// the generation cut short) it stays open and [`Search::ask`] returns the
+    /// candidates still missing.
     ///
     /// # Errors
     /// [`OptimError::UnexpectedRecord`] for a record of a candidate that was not asked for
@@ -652,6 +655,12 @@ impl<'a> Search<'a> {
                 }
             }
             self.evaluated += 1;
+        }
+        if pending.slots.iter().any(Option::is_none) && !self.past_deadline() {
+            // Results may come in pieces (a Python caller telling them as they arrive):
+            // the generation stays open, and `ask` returns the candidates still missing.
+            self.pending = Some(pending);
+            return Ok(());
         }
         let composite = &self.reference.as_ref().expect("reference told").1;
         let complete =

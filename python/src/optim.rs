@@ -14,7 +14,7 @@ use tdpcr_optim::OptimError;
 use tdpcr_optim::report::{ReportContext, load_average, write_outputs};
 use tdpcr_optim::runlog::RunInfo;
 use tdpcr_optim::search::{
-    Candidate, Evaluation, Overrides, Search, Setup, Silent, evaluate_candidate,
+    Candidate, Evaluation, Overrides, Search, SearchResult, Setup, Silent, evaluate_candidate,
 };
 use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_sets};
 
@@ -43,6 +43,9 @@ fn json_error(what: &str, e: serde_json::Error) -> PyErr {
 #[pyclass(module = "tdpcr")]
 pub struct DesignSearch {
     search: Option<Search<'static>>,
+    /// The ended search's result once `finish` has taken it (kept, so that a `finish`
+    /// whose outputs could not be written can be called again).
+    result: Option<(Setup, SearchResult)>,
     out: PathBuf,
     problem: String,
 }
@@ -74,6 +77,7 @@ impl DesignSearch {
         let search = Search::open(setup, &out, resume, &Silent).map_err(optim_error)?;
         Ok(Self {
             search: Some(search),
+            result: None,
             out,
             problem,
         })
@@ -122,7 +126,9 @@ impl DesignSearch {
 
     /// Writes the outputs of the ended search (designs, `pareto.csv`, figures,
     /// `report.md`; slice figures swept here) and returns a summary dict. `command` and
-    /// `workers` go into the report.
+    /// `workers` go into the report. Called before the search has ended it raises
+    /// `ValueError` and changes nothing; where the outputs cannot be written
+    /// (`OSError`) it can be called again.
     #[pyo3(signature = (command, workers))]
     fn finish<'py>(
         &mut self,
@@ -131,27 +137,34 @@ impl DesignSearch {
         workers: usize,
     ) -> PyResult<Bound<'py, PyDict>> {
         let load_start = load_average();
-        let search = self
-            .search
-            .take()
-            .ok_or_else(|| PyRuntimeError::new_err("the search is finished"))?;
-        let setup = search.setup().clone();
-        let result = match search.finish() {
-            Ok(r) => r,
-            Err(e) => return Err(optim_error(e)),
-        };
+        if self.result.is_none() {
+            let search = self
+                .search
+                .as_ref()
+                .ok_or_else(|| PyRuntimeError::new_err("the search is finished"))?;
+            // Checked before the search is taken: an early call leaves it usable.
+            if search.termination().is_none() {
+                return Err(PyValueError::new_err(
+                    "finish() before the search has ended: call ask() until it returns no \
+                     candidate (telling each generation's results) first",
+                ));
+            }
+            let search = self.search.take().expect("checked above");
+            let setup = search.setup().clone();
+            self.result = Some((setup, search.finish().map_err(optim_error)?));
+        }
+        let (setup, result) = self.result.as_ref().expect("set above");
         let out = self.out.clone();
         let files = py
             .detach(|| {
-                let (slices, slices_note) =
-                    slice_sets(&setup, &result, &|line| eprintln!("{line}"));
+                let (slices, slices_note) = slice_sets(setup, result, &|line| eprintln!("{line}"));
                 let ctx = ReportContext {
                     command,
                     threads: workers,
                     load_average: [load_start, load_average()],
                     slices_note,
                 };
-                write_outputs(&out, &setup, &result, &slices, &ctx)
+                write_outputs(&out, setup, result, &slices, &ctx)
             })
             .map_err(optim_error)?;
         let summary = PyDict::new(py);

@@ -54,6 +54,13 @@ impl Robot {
         if let Some(m) = max_iterations {
             settings.max_iterations = m;
         }
+        // Checked once per call, before any solve: a batch with a bad tolerance raised
+        // nothing and failed every row.
+        let mut v = tdpcr::error::Violations::default();
+        settings.check("settings", &mut v);
+        if !v.0.is_empty() {
+            return Err(PyValueError::new_err(tdpcr::Error::Input(v).to_string()));
+        }
         let jacobian = match jacobian {
             "exact" => JacobianMethod::Exact,
             "fd" => JacobianMethod::FiniteDifference(FiniteDifference::Forward),

@@ -14,7 +14,8 @@ use serde_json::Value;
 
 use tdpcr::Tdpcr;
 use tdpcr::workspace::{
-    Progress, WorkspaceMap, WorkspacePoint, WorkspaceSettings, sweep_workspace_with_progress,
+    PointMetrics, Progress, Rconds, Singularity, WorkspaceMap, WorkspacePoint, WorkspaceSettings,
+    sweep_workspace_with_progress,
 };
 
 use crate::analysis::json_value;
@@ -115,16 +116,43 @@ fn columns<'py>(py: Python<'py>, map: &WorkspaceMap) -> PyResult<Bound<'py, PyDi
         .map(|p| serde_json::to_value(p.metrics))
         .collect::<Result<_, _>>()
         .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    merge_columns(py, &out, &metrics)?;
+    // The keys and kinds from a point's metrics (a zero one where no point was reached,
+    // so that an empty map has every documented column, empty).
+    let shape = serde_json::to_value(points.first().map_or_else(zero_metrics, |p| p.metrics))
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    merge_columns(py, &out, &shape, &metrics)?;
     out.set_item("summary", json_value(py, &map.summary)?)?;
     out.set_item("settings", json_value(py, &map.settings)?)?;
     Ok(out)
 }
 
-/// Sets in `out`, for every key of the JSON objects `rows` (all of one shape), a column:
-/// a float64 array for numbers, a bool array for booleans, a dict of columns for objects.
-fn merge_columns(py: Python<'_>, out: &Bound<'_, PyDict>, rows: &[Value]) -> PyResult<()> {
-    let Some(Value::Object(first)) = rows.first() else {
+/// Metrics of no point: the shape of the columns of an empty map.
+fn zero_metrics() -> PointMetrics {
+    PointMetrics {
+        rcond: Rconds::ZERO,
+        rcond_scaled: Rconds::ZERO,
+        singularity: Singularity {
+            type_i: false,
+            type_ii: false,
+            leg: false,
+        },
+        min_tension: 0.0,
+        stable: false,
+        min_compliance_eigenvalue: 0.0,
+        leg_switch: false,
+    }
+}
+
+/// Sets in `out`, for every key of the JSON object `shape` (the shape of every row of
+/// `rows`), a column over `rows`: a float64 array for numbers, a bool array for
+/// booleans, a dict of columns for objects (empty columns where `rows` is empty).
+fn merge_columns(
+    py: Python<'_>,
+    out: &Bound<'_, PyDict>,
+    shape: &Value,
+    rows: &[Value],
+) -> PyResult<()> {
+    let Value::Object(first) = shape else {
         return Ok(());
     };
     for (key, sample) in first {
@@ -138,7 +166,7 @@ fn merge_columns(py: Python<'_>, out: &Bound<'_, PyDict>, rows: &[Value]) -> PyR
             Value::Object(_) => {
                 let inner = PyDict::new(py);
                 let rows: Vec<Value> = column.into_iter().cloned().collect();
-                merge_columns(py, &inner, &rows)?;
+                merge_columns(py, &inner, sample, &rows)?;
                 out.set_item(key, inner)?;
             }
             _ => out.set_item(

@@ -134,3 +134,11 @@ def test_non_contiguous_fortran_float32_and_int_batches(robot):
     )
     zeros = robot.trajectory_fk(np.zeros((2, 6), dtype=np.int32))
     assert zeros["converged"].all() and zeros["q"].dtype == np.float64
+
+
+def test_bad_settings_raise_before_any_row_is_solved(robot):
+    rows = np.tile(Q6, (3, 1))
+    with pytest.raises(ValueError, match="settings.tolerance = -1"):
+        robot.fk_many(rows, tolerance=-1.0)
+    with pytest.raises(ValueError, match="settings.max_iterations = 0"):
+        robot.trajectory_fk(rows, max_iterations=0)

@@ -130,3 +130,15 @@ def test_workspace_errors(robot):
 
     with pytest.raises(KeyError, match="from the callback"):
         coarse(robot, progress=fails)
+
+
+def test_an_empty_workspace_has_every_column(robot):
+    # No plane of the range is reached (the paths stop at the actuation limits long
+    # before z = 0.3 m): every documented column is there, empty.
+    ws = robot.workspace(step=0.003, angle_step=0.5, z_range=(0.3, 0.3))
+    assert ws["position"].shape == (0, 3) and ws["reachable"].shape == (0,)
+    assert set(ws["rcond"]) >= {"b_xu", "b_qu", "b_u"} and ws["rcond"]["b_xu"].shape == (0,)
+    assert set(ws["rcond_scaled"]) >= {"b_xu", "b_qu", "b_u"}
+    assert set(ws["singularity"]) == {"type_i", "type_ii", "leg"}
+    for key in ("min_tension", "stable", "min_compliance_eigenvalue", "leg_switch"):
+        assert ws[key].shape == (0,), key

@@ -100,6 +100,19 @@ pub struct Rconds {
     pub c_o: f64,
 }
 
+impl Rconds {
+    /// Every rcond 0 (the measures of an exactly singular \[B_x B_u\]).
+    pub const ZERO: Self = Self {
+        b_xu: 0.0,
+        b_qu: 0.0,
+        b_u: 0.0,
+        j_p: 0.0,
+        j_o: 0.0,
+        c_p: 0.0,
+        c_o: 0.0,
+    };
+}
+
 /// Which singularities the configuration is at or near.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Singularity {

@@ -111,15 +111,7 @@ fn metrics_of(c: &Conditioning) -> PointMetrics {
 
 /// The measures where \[B_x B_u\] is exactly singular (see [`point_metrics`]).
 fn singular(solver: &Solver, state: &RobotState) -> PointMetrics {
-    let zero = Rconds {
-        b_xu: 0.0,
-        b_qu: 0.0,
-        b_u: 0.0,
-        j_p: 0.0,
-        j_o: 0.0,
-        c_p: 0.0,
-        c_o: 0.0,
-    };
+    let zero = Rconds::ZERO;
     let min_tension = tensions(solver.model(), state)
         .into_iter()
         .fold(f64::INFINITY, f64::min);

@@ -1,0 +1,30 @@
+"""The design search driven step by step from Python without a cluster: results told in
+pieces keep their generation open, and finish() before the end changes nothing."""
+
+import pathlib
+
+import pytest
+
+from tdpcr.optim import DesignSearch, SearchProblem
+
+CONFIG = pathlib.Path(__file__).resolve().parent / "data" / "tiny_search.ron"
+
+
+def test_a_generation_told_in_pieces_stays_open(tmp_path):
+    search = DesignSearch(str(CONFIG), str(tmp_path / "run"), budget_evals=4, seed=9)
+    problem = SearchProblem(search.problem)
+    search.tell([problem.evaluate(c) for c in search.ask()])  # the reference
+    # finish() before the end: an error, and the search goes on.
+    with pytest.raises(ValueError, match="before the search has ended"):
+        search.finish("test", 1)
+    generation = search.ask()
+    assert len(generation) >= 2
+    search.tell([problem.evaluate(generation[0])])
+    assert search.termination is None
+    assert search.ask() == generation[1:]
+    search.tell([problem.evaluate(c) for c in generation[1:]])
+    while candidates := search.ask():
+        search.tell([problem.evaluate(c) for c in candidates])
+    assert "budget" in search.termination
+    summary = search.finish("test", 1)
+    assert summary["candidates"] == 4
