@@ -116,6 +116,34 @@ fn closest_to_a_reference_on_the_solution_set_returns_it() {
     assert!(moved > 1e-4, "{moved:.1e}");
 }
 
+/// A run towards a reference across a tendon's kink retries with one-sided steps, as
+/// the least-change runs do: the reference below (leg 1's second pair 2 mm from the
+/// least-change solution, on the reference design) was given up for the least-change
+/// solution before (its run's line search failed at the kink), and now pulls q[4] by
+/// about 1.6 mm towards it.
+#[test]
+fn a_reference_across_a_kink_is_followed_not_given_up() {
+    let d = Tdpcr::from_ron_file(design_path("lilge2022_redundant.ron")).unwrap();
+    let w = Wrench::default();
+    let mut s = Solver::new(&d).unwrap();
+    let pose = tdpcr::Pose {
+        position: nalgebra::Vector3::new(0.005, 0.0, -0.01),
+        rotation: nalgebra::Matrix3::identity(),
+    };
+    s.redundancy = Redundancy::WithinLimits(Objective::LeastChange);
+    let free = s.solve_ik(&pose, &w, None).unwrap().state.q;
+    let mut reference = free.clone();
+    reference[4] -= 0.002;
+    s.redundancy = Redundancy::WithinLimits(Objective::ClosestTo(reference));
+    let pulled = s.solve_ik(&pose, &w, None).unwrap().state.q;
+    assert!(
+        pulled[4] - free[4] < -1e-3,
+        "q[4] {:.3e} against {:.3e} without the reference",
+        pulled[4],
+        free[4]
+    );
+}
+
 #[test]
 fn a_pose_out_of_reach_within_the_limits_is_a_solve_error_not_a_violation() {
     let d = design();

@@ -70,7 +70,11 @@ const Y_WEIGHT: f64 = LEAST_NORM_Y_WEIGHT / (0.01 * 0.01);
 /// conditions are met by the leg unknowns before q leaves the reference.
 const REFERENCE_Y_WEIGHT: f64 = 1e-8;
 
-/// IK of the system's pose within the limits, from `guess` (q and γ leg unknowns).
+/// IK of the system's pose within the limits, from `guess` (q and γ leg unknowns):
+/// with [`Objective::ClosestTo`] first a run from the reference (clamped to the limits)
+/// towards it, retried with one-sided steps where its line search fails across a
+/// tendon's kink ([`solve_across_kinks`], as the least-change run; before 2026-11-28 such
+/// a reference was given up); where it fails, a least-change run from `guess`.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] when a QP step is infeasible (the pose needs q outside
@@ -94,7 +98,7 @@ pub(super) fn within_limits_ik(
                 .map(|(r, l)| r.clamp(-l, *l))
                 .collect();
             let mut rule = QpStep::new(&limits, Some(reference), settings, &q);
-            match system.solve(&mut rule, settings, &q, &guess.y_u) {
+            match solve_across_kinks(system, &mut rule, settings, &q, &guess.y_u) {
                 Ok(done) => return Ok(done),
                 Err(e) => spent = NewtonReport::of_failed_run(&e, &system.evaluated),
             }
