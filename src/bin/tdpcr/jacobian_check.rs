@@ -23,9 +23,15 @@ pub fn run(args: &JacobianCheckArgs) -> Result<(), Error> {
     let mut solver = Solver::new(&design)?;
     let check = tdpcr::jacobian_check::jacobian_check(&mut solver, args.samples, args.seed);
     if check.solved == 0 {
-        // Nothing to compare: the samples' failures, and the first as the error (exit 1).
-        for f in &check.failures {
-            eprintln!("sample {}: {}", f.sample, f.error);
+        // Nothing to compare: the samples' failures (in JSON the whole check, `failures`
+        // included), and the first as the error (exit 1).
+        match args.format {
+            crate::args::Format::Json => output::print_json(&check),
+            crate::args::Format::Text => {
+                for f in &check.failures {
+                    eprintln!("sample {}: {}", f.sample, f.error);
+                }
+            }
         }
         let first = check.first_error.clone();
         return Err(first.map_or_else(
