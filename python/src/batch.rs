@@ -8,7 +8,7 @@
 //! output of the row (position, rotation, rotvec, q, tensions, residual_norm,
 //! solve_time_us) is 0, never NaN: read rows through the `converged` mask.
 
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 use nalgebra::{Rotation3, Vector3};
 use numpy::IntoPyArray;
@@ -79,7 +79,7 @@ struct Stacked {
     residual_norm: Array1<f64>,
     solve_time_us: Array1<f64>,
     converged: Array1<bool>,
-    errors: HashMap<usize, String>,
+    errors: BTreeMap<usize, String>,
 }
 
 impl Stacked {
@@ -93,7 +93,7 @@ impl Stacked {
             residual_norm: Array1::zeros(m),
             solve_time_us: Array1::zeros(m),
             converged: Array1::from_elem(m, false),
-            errors: HashMap::new(),
+            errors: BTreeMap::new(),
         }
     }
 

@@ -142,3 +142,11 @@ def test_bad_settings_raise_before_any_row_is_solved(robot):
         robot.fk_many(rows, tolerance=-1.0)
     with pytest.raises(ValueError, match="settings.max_iterations = 0"):
         robot.trajectory_fk(rows, max_iterations=0)
+
+
+def test_failed_rows_are_listed_in_row_order(robot):
+    rows = np.tile(Q6, (6, 1))
+    rows[[4, 1, 3]] = 1.0  # far beyond the limits: these rows fail
+    d = robot.fk_many(rows)
+    assert list(d["errors"]) == [1, 3, 4]
+    assert not d["converged"][[1, 3, 4]].any() and d["converged"][[0, 2, 5]].all()
