@@ -74,7 +74,11 @@ const REFERENCE_Y_WEIGHT: f64 = 1e-8;
 /// with [`Objective::ClosestTo`] first a run from the reference (clamped to the limits)
 /// towards it, retried with one-sided steps where its line search fails across a
 /// tendon's kink ([`solve_across_kinks`], as the least-change run; before 2026-11-28 such
-/// a reference was given up); where it fails, a least-change run from `guess`.
+/// a reference was given up); where it fails, a least-change run from `guess`, and then
+/// the run towards the reference once more from that solution's leg unknowns (a cold
+/// guess's are far from every solution; before 2026-11-28 the least-change solution was
+/// returned, the reference ignored without a word). Where that fails too, the
+/// least-change solution.
 ///
 /// # Errors
 /// [`SolveError::NotConverged`] when a QP step is infeasible (the pose needs q outside
@@ -87,28 +91,57 @@ pub(super) fn within_limits_ik(
     objective: &Objective,
 ) -> Result<(RobotState, NewtonReport), SolveError> {
     let limits = actuation_limits(system.model);
-    // The work of a first run towards the reference that failed (its evaluations stay in
-    // the system's tally).
+    // A run from the reference (clamped to the limits) towards it, from leg unknowns
+    // `y_u`: the solution, or the work of the failed run (its evaluations counted from
+    // the system's tally since `before`).
+    let toward_reference = |system: &mut IkSystem<'_>, reference: &[f64], y_u: &[f64]| {
+        let q: Vec<f64> = reference
+            .iter()
+            .zip(&limits)
+            .map(|(r, l)| r.clamp(-l, *l))
+            .collect();
+        let before = system.evaluated;
+        let mut rule = QpStep::new(&limits, Some(reference), settings, &q);
+        solve_across_kinks(system, &mut rule, settings, &q, y_u).map_err(|e| {
+            let mut failed = NewtonReport::of_failed_run(&e, &system.evaluated);
+            failed.residual_evaluations -= before.residual_evaluations;
+            failed.jacobian_evaluations -= before.jacobian_evaluations;
+            failed
+        })
+    };
+    let reference = match objective {
+        Objective::ClosestTo(r) if r.len() == limits.len() => Some(r.as_slice()),
+        _ => None,
+    };
+    // The work of a first run towards the reference that failed.
     let mut spent = NewtonReport::none();
-    if let Objective::ClosestTo(reference) = objective {
-        if reference.len() == limits.len() {
-            let q: Vec<f64> = reference
-                .iter()
-                .zip(&limits)
-                .map(|(r, l)| r.clamp(-l, *l))
-                .collect();
-            let mut rule = QpStep::new(&limits, Some(reference), settings, &q);
-            match solve_across_kinks(system, &mut rule, settings, &q, &guess.y_u) {
-                Ok(done) => return Ok(done),
-                Err(e) => spent = NewtonReport::of_failed_run(&e, &system.evaluated),
-            }
+    if let Some(reference) = reference {
+        match toward_reference(system, reference, &guess.y_u) {
+            Ok(done) => return Ok(done),
+            Err(failed) => spent = failed,
         }
     }
     let mut rule = QpStep::new(&limits, None, settings, &guess.q);
     match solve_across_kinks(system, &mut rule, settings, &guess.q, &guess.y_u) {
         Ok((state, mut report)) => {
             report.add_work(&spent);
-            Ok((state, report))
+            let Some(reference) = reference else {
+                return Ok((state, report));
+            };
+            // The run from the reference failed from the guess's leg unknowns (a cold
+            // guess is far from every solution: its first QP step can be infeasible);
+            // once more from the least-change solution's, which the pull then leaves
+            // only as far as the reference asks.
+            match toward_reference(system, reference, &state.y_u) {
+                Ok((pulled, mut pulled_report)) => {
+                    pulled_report.add_work(&report);
+                    Ok((pulled, pulled_report))
+                }
+                Err(failed) => {
+                    report.add_work(&failed);
+                    Ok((state, report))
+                }
+            }
         }
         Err(SolveError::NotConverged {
             iterations,
