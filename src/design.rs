@@ -176,11 +176,34 @@ fn default_coupling_angles() -> (f64, f64, f64) {
 
 /// Reads and parses a RON file into `T`, mapping errors to [`DesignError`].
 fn parse_ron_file<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, DesignError> {
-    let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
+    parse_ron_str(&read_design_text(path)?, path)
+}
+
+/// The most bytes a design file may have (the bundled ones have about 2 kB).
+pub const MAX_DESIGN_FILE_BYTES: u64 = 16 << 20;
+
+/// The text of the design file `path`, at most [`MAX_DESIGN_FILE_BYTES`] (reading
+/// `/dev/zero` took all the memory there was).
+///
+/// # Errors
+/// [`DesignError::Io`] if it cannot be read, is not UTF-8 or is longer.
+pub fn read_design_text(path: &Path) -> Result<String, DesignError> {
+    use std::io::Read;
+    let io = |source| DesignError::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    parse_ron_str(&text, path)
+    };
+    let mut text = String::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_DESIGN_FILE_BYTES + 1).read_to_string(&mut text))
+        .map_err(io)?;
+    if text.len() as u64 > MAX_DESIGN_FILE_BYTES {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("longer than {MAX_DESIGN_FILE_BYTES} bytes: not a design file"),
+        )));
+    }
+    Ok(text)
 }
 
 fn parse_ron_str<T: for<'de> Deserialize<'de>>(text: &str, path: &Path) -> Result<T, DesignError> {

@@ -258,3 +258,15 @@ fn unknown_fields_missing_fields_and_wrong_kinds_are_rejected() {
     let missing_file = Tdcr::from_ron_file("/nonexistent/robot.ron").unwrap_err();
     assert!(missing_file.to_string().contains("/nonexistent/robot.ron"));
 }
+
+/// A design file is read up to 16 MiB: `/dev/zero` (endless) is an error, not all the
+/// memory there is.
+#[cfg(unix)]
+#[test]
+fn an_endless_file_is_refused() {
+    let e = Tdpcr::from_ron_file("/dev/zero").unwrap_err().to_string();
+    assert!(
+        e.contains("/dev/zero") && e.contains("not a design file"),
+        "{e}"
+    );
+}

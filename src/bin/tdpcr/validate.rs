@@ -7,10 +7,7 @@ use crate::args::ValidateArgs;
 
 /// Runs `tdpcr validate`.
 pub fn run(args: &ValidateArgs) -> Result<(), Error> {
-    let text = std::fs::read_to_string(&args.design).map_err(|source| tdpcr::DesignError::Io {
-        path: args.design.clone(),
-        source,
-    })?;
+    let text = tdpcr::design::read_design_text(&args.design)?;
     let source = args.design.display().to_string();
     // The file's kind by what parses: a TDPCR file that parses (valid or not) is one, and
     // so is a TDCR file; where neither parses, the error of the kind the text names.
