@@ -1386,16 +1386,11 @@ fn jacobian_check_reports_samples_it_could_not_compare() {
         "{}",
         stderr(&o)
     );
-    let dir = std::env::temp_dir().join(format!("tdpcr-cli-jc-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let stiff = dir.join("stiff.ron");
-    let text = std::fs::read_to_string(design()).unwrap();
-    assert!(text.contains("youngs_modulus: 54e9"));
-    std::fs::write(
-        &stiff,
-        text.replace("youngs_modulus: 54e9", "youngs_modulus: 1e30"),
-    )
-    .unwrap();
+    let stiff = design_with(
+        "cli-jc-stiff",
+        "youngs_modulus: 54e9",
+        "youngs_modulus: 1e30",
+    );
     let o = tdpcr(&[
         "jacobian-check",
         &stiff.display().to_string(),
@@ -1408,7 +1403,7 @@ fn jacobian_check_reports_samples_it_could_not_compare() {
         e.contains("sample 0: solve did not converge") && e.contains("sample 1: "),
         "{e}"
     );
-    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_file(&stiff).ok();
 }
 
 /// A failed trajectory step says why Newton stopped (`stop_reason`), and a failed FK
@@ -1416,7 +1411,7 @@ fn jacobian_check_reports_samples_it_could_not_compare() {
 /// made-up one at the origin.
 #[test]
 fn failed_trajectory_steps_carry_their_stop_reason_and_no_made_up_pose() {
-    let dir = std::env::temp_dir().join(format!("tdpcr-cli-traj-{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("tdpcr-cli-traj-failed-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let q = dir.join("q.csv");
     std::fs::write(&q, "0,0,0,0,0,0\n1,1,1,1,1,1\n").unwrap();

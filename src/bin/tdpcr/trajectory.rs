@@ -224,29 +224,27 @@ mod tests {
             msg.contains("poses.csv:3:1 = 3 columns: expected 6 columns"),
             "{msg}"
         );
+        // The error of `text` as the file.
+        let error_of = |text: &str| {
+            std::fs::write(&path, text).unwrap();
+            read_csv(&path, 6, "x,y,z,rx,ry,rz")
+                .unwrap_err()
+                .to_string()
+        };
         // Only the first line can be a header: a row of NaN is data, and a second
         // non-numeric line is an error, not another header.
-        std::fs::write(&path, "NaN,NaN,NaN,NaN,NaN,NaN\n0,0,0,0,0,0\n").unwrap();
-        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
-            .unwrap_err()
-            .to_string();
+        let msg = error_of("NaN,NaN,NaN,NaN,NaN,NaN\n0,0,0,0,0,0\n");
         assert!(
             msg.contains("poses.csv:1:1 = NaN: expected a finite number"),
             "{msg}"
         );
-        std::fs::write(&path, "a,b,c,d,e,f\ng,h,i,j,k,l\n0,0,0,0,0,0\n").unwrap();
-        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
-            .unwrap_err()
-            .to_string();
+        let msg = error_of("a,b,c,d,e,f\ng,h,i,j,k,l\n0,0,0,0,0,0\n");
         assert!(
             msg.contains("poses.csv:2:1 = g: expected a finite number"),
             "{msg}"
         );
         // Another separator: the second line has one column.
-        std::fs::write(&path, "x;y;z;rx;ry;rz\n0;0;0;0;0;0\n").unwrap();
-        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
-            .unwrap_err()
-            .to_string();
+        let msg = error_of("x;y;z;rx;ry;rz\n0;0;0;0;0;0\n");
         assert!(
             msg.contains("poses.csv:2:1 = 1 column: expected 6 columns"),
             "{msg}"
