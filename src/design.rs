@@ -29,6 +29,26 @@ pub const MAX_DISKS: usize = 1000;
 /// legs are 0.145-0.2 m); longer rods only diverge.
 pub const MAX_LEG_LENGTH: f64 = 10.0;
 
+/// The range of Young's modulus accepted \[Pa\]: from hydrogels (≈ 1e3 Pa) to beyond
+/// diamond (1.2e12 Pa). Outside it the rod's stiffness and its loads differ by more
+/// orders of magnitude than the solver's tolerances span: a modulus of 1e308 Pa passed
+/// validation and every solve diverged.
+pub const YOUNGS_MODULUS_RANGE: [f64; 2] = [1e3, 1e13];
+
+/// Largest mass accepted for the backbone, the disks and the platform \[kg\] (the
+/// bundled designs' are 0.3–34 g).
+pub const MAX_MASS: f64 = 1e3;
+
+/// The range of a tendon's axial stiffness (EA)_t accepted \[N\] (the bundled designs':
+/// 1000 N; a steel cable of 1 mm² about 2e5 N).
+pub const TENDON_STIFFNESS_RANGE: [f64; 2] = [1e-3, 1e10];
+
+/// Largest pretension accepted \[N\] (the design search's range ends at a few newtons).
+pub const MAX_PRETENSION: f64 = 1e6;
+
+/// Largest magnitude of a gravity component accepted \[m/s²\] (100 g).
+pub const MAX_GRAVITY: f64 = 1e3;
+
 /// Default number of fixed integration steps over the whole leg length (with the default
 /// [`Integrator::Rk5`]; MODEL.md §5).
 pub const DEFAULT_INTEGRATION_STEPS: usize = 10;
@@ -242,9 +262,29 @@ fn check_non_negative(v: &mut Violations, field: &str, value: f64, unit: &str) {
     }
 }
 
+/// `value` at most `max` (a finite value; non-finite ones are the other checks').
+fn check_at_most(v: &mut Violations, field: &str, value: f64, max: f64, expected: &str) {
+    if value.is_finite() && value > max {
+        v.push(field, value, expected);
+    }
+}
+
+/// `value` within `[lo, hi]` (a positive value; others are [`check_positive`]'s).
+fn check_within(v: &mut Violations, field: &str, value: f64, [lo, hi]: [f64; 2], expected: &str) {
+    if value.is_finite() && value > 0.0 && !(lo..=hi).contains(&value) {
+        v.push(field, value, expected);
+    }
+}
+
 fn check_gravity(v: &mut Violations, g: (f64, f64, f64)) {
     for (name, x) in [("gravity.0", g.0), ("gravity.1", g.1), ("gravity.2", g.2)] {
-        check_finite(v, name, x);
+        if check_finite(v, name, x) && x.abs() > MAX_GRAVITY {
+            v.push(
+                name,
+                x,
+                &format!("within +-{MAX_GRAVITY} m/s^2 (100 g; Earth's is 9.81)"),
+            );
+        }
     }
 }
 
@@ -265,10 +305,29 @@ impl Leg {
         }
         check_positive(v, &f("backbone_radius"), self.backbone_radius, "m");
         check_positive(v, &f("youngs_modulus"), self.youngs_modulus, "Pa");
+        let [e_lo, e_hi] = YOUNGS_MODULUS_RANGE;
+        check_within(
+            v,
+            &f("youngs_modulus"),
+            self.youngs_modulus,
+            YOUNGS_MODULUS_RANGE,
+            &format!(
+                "in [{e_lo:e}, {e_hi:e}] Pa (silicone rubber about 1e6, nitinol 5e10-8e10, \
+                 diamond 1.2e12)"
+            ),
+        );
         if !(self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {
             v.push(f("poisson_ratio"), self.poisson_ratio, "in (-1, 0.5)");
         }
         check_non_negative(v, &f("backbone_mass"), self.backbone_mass, "kg");
+        let mass_bound = format!("<= {MAX_MASS:e} kg");
+        check_at_most(
+            v,
+            &f("backbone_mass"),
+            self.backbone_mass,
+            MAX_MASS,
+            &mass_bound,
+        );
         if !(1..=MAX_DISKS).contains(&self.disks.count) {
             v.push(
                 f("disks.count"),
@@ -277,6 +336,7 @@ impl Leg {
             );
         }
         check_non_negative(v, &f("disks.mass"), self.disks.mass, "kg");
+        check_at_most(v, &f("disks.mass"), self.disks.mass, MAX_MASS, &mass_bound);
         check_positive(v, &f("disks.radius"), self.disks.radius, "m");
         // The disks and the backbone are no larger than the largest rod (a radius of
         // 1e308 m overflowed the collision checks and the 3D views' coordinates).
@@ -293,6 +353,14 @@ impl Leg {
             }
         }
         check_positive(v, &f("tendon_stiffness"), self.tendon_stiffness, "N");
+        let [k_lo, k_hi] = TENDON_STIFFNESS_RANGE;
+        check_within(
+            v,
+            &f("tendon_stiffness"),
+            self.tendon_stiffness,
+            TENDON_STIFFNESS_RANGE,
+            &format!("in [{k_lo:e}, {k_hi:e}] N (the axial stiffness EA of a tendon)"),
+        );
         if !(1..=100_000).contains(&self.integration_steps) {
             v.push(
                 f("integration_steps"),
@@ -439,8 +507,29 @@ impl Tdpcr {
             self.platform.side_length,
             "m",
         );
+        check_at_most(
+            &mut v,
+            "platform.side_length",
+            self.platform.side_length,
+            MAX_LEG_LENGTH,
+            &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+        );
         check_non_negative(&mut v, "platform.mass", self.platform.mass, "kg");
+        check_at_most(
+            &mut v,
+            "platform.mass",
+            self.platform.mass,
+            MAX_MASS,
+            &format!("<= {MAX_MASS:e} kg"),
+        );
         check_non_negative(&mut v, "coupling_offset", self.coupling_offset, "m");
+        check_at_most(
+            &mut v,
+            "coupling_offset",
+            self.coupling_offset,
+            MAX_LEG_LENGTH,
+            &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+        );
         if !(self.alpha.is_finite() && self.alpha > 0.0 && self.alpha < PI / 2.0) {
             v.push("alpha", self.alpha, "in (0, pi/2) rad");
         }
@@ -455,6 +544,13 @@ impl Tdpcr {
             check_finite(&mut v, name, x);
         }
         check_non_negative(&mut v, "pretension", self.pretension, "N");
+        check_at_most(
+            &mut v,
+            "pretension",
+            self.pretension,
+            MAX_PRETENSION,
+            &format!("<= {MAX_PRETENSION:e} N"),
+        );
         check_positive(
             &mut v,
             "actuation_limits.tendon_displacement",
@@ -467,6 +563,24 @@ impl Tdpcr {
             self.actuation_limits.base_translation,
             "m",
         );
+        for (field, limit) in [
+            (
+                "actuation_limits.tendon_displacement",
+                self.actuation_limits.tendon_displacement,
+            ),
+            (
+                "actuation_limits.base_translation",
+                self.actuation_limits.base_translation,
+            ),
+        ] {
+            check_at_most(
+                &mut v,
+                field,
+                limit,
+                MAX_LEG_LENGTH,
+                &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+            );
+        }
         v.into_result(source)
     }
 

@@ -180,6 +180,104 @@ fn each_single_rule_is_enforced() {
     );
 }
 
+/// Values beyond any continuum robot are refused with the bound in the message (a
+/// modulus or a mass of 1e308 passed validation before and every solve then diverged);
+/// the bounds themselves pass.
+#[test]
+fn implausible_magnitudes_are_refused_and_the_bounds_accepted() {
+    let cases: &[(&str, &str, &str, &str)] = &[
+        (
+            "youngs_modulus: 54e9",
+            "youngs_modulus: 1e308",
+            "youngs_modulus: 1e13",
+            "leg.youngs_modulus",
+        ),
+        (
+            "youngs_modulus: 54e9",
+            "youngs_modulus: 1e-3",
+            "youngs_modulus: 1e3",
+            "leg.youngs_modulus",
+        ),
+        (
+            "tendon_stiffness: 1000.0",
+            "tendon_stiffness: 1e20",
+            "tendon_stiffness: 1e10",
+            "leg.tendon_stiffness",
+        ),
+        (
+            "tendon_stiffness: 1000.0",
+            "tendon_stiffness: 1e-9",
+            "tendon_stiffness: 1e-3",
+            "leg.tendon_stiffness",
+        ),
+        (
+            "backbone_mass: 0.0012",
+            "backbone_mass: 1e308",
+            "backbone_mass: 1e3",
+            "leg.backbone_mass",
+        ),
+        (
+            "Disks(count: 13, mass: 0.0003",
+            "Disks(count: 13, mass: 2e3",
+            "Disks(count: 13, mass: 1e3",
+            "leg.disks.mass",
+        ),
+        (
+            "platform: Platform(side_length: 0.13, mass: 0.0344)",
+            "platform: Platform(side_length: 0.13, mass: 1e4)",
+            "platform: Platform(side_length: 0.13, mass: 1e3)",
+            "platform.mass",
+        ),
+        (
+            "side_length: 0.13",
+            "side_length: 11.0",
+            "side_length: 10.0",
+            "platform.side_length",
+        ),
+        (
+            "coupling_offset: 0.0225",
+            "coupling_offset: 1e9",
+            "coupling_offset: 10.0",
+            "coupling_offset",
+        ),
+        (
+            "pretension: 0.0",
+            "pretension: 1e7",
+            "pretension: 1e6",
+            "pretension",
+        ),
+        (
+            "gravity: (0.0, 0.0, -9.81)",
+            "gravity: (0.0, 0.0, -1e5)",
+            "gravity: (0.0, 0.0, -1e3)",
+            "gravity.2",
+        ),
+        (
+            "tendon_displacement: 0.01",
+            "tendon_displacement: 1e6",
+            "tendon_displacement: 10.0",
+            "actuation_limits.tendon_displacement",
+        ),
+        (
+            "base_translation: 0.1",
+            "base_translation: 20.0",
+            "base_translation: 10.0",
+            "actuation_limits.base_translation",
+        ),
+    ];
+    for (from, to, bound, field) in cases {
+        assert!(TDPCR.contains(from), "fixture lacks {from}");
+        let err = Tdpcr::from_ron_str(&TDPCR.replacen(from, to, 1), "case").unwrap_err();
+        let text = err.to_string();
+        let v = violations(err);
+        assert_eq!(v.len(), 1, "{to}: {v:?}");
+        assert_eq!(v[0].0, *field);
+        assert!(text.contains("expected"), "{text}");
+        Tdpcr::from_ron_str(&TDPCR.replacen(from, bound, 1), "bound")
+            .unwrap_or_else(|e| panic!("{bound}: {e}"));
+    }
+}
+
 #[test]
 fn parallel_design_rules_are_enforced() {
     let cases: &[(&str, &str, &str)] = &[
