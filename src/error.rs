@@ -251,6 +251,22 @@ pub enum SolveError {
     },
 }
 
+impl SolveError {
+    /// Why the solve failed, snake_case: the [`StopReason`] of a Newton run that stopped
+    /// short (its [`StopReason::as_str`]), else the kind of failure (`"non_finite"`,
+    /// `"diverged"`, `"under_resolved"`, `"trajectory_steps_failed"`); Python's
+    /// `ConvergenceError.reason`.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Self::NotConverged { reason, .. } => reason.as_str(),
+            Self::NonFinite { .. } => "non_finite",
+            Self::Diverged { .. } => "diverged",
+            Self::UnderResolved { .. } => "under_resolved",
+            Self::TrajectoryStepsFailed { .. } => StopReason::TrajectoryStepsFailed.as_str(),
+        }
+    }
+}
+
 /// The largest drift of an integrated frame off a rotation, max |RᵀR − I|, that a
 /// solution may have ([`SolveError::UnderResolved`]). The default 10 steps of the leg's
 /// fifth-order method keep the reference design's legs within 1e-7 (one leg bent by
@@ -460,6 +476,23 @@ pub enum Error {
         /// Underlying I/O error.
         source: std::io::Error,
     },
+}
+
+impl Error {
+    /// Why it failed, snake_case: a solve's [`SolveError::reason`], else the kind of
+    /// error (`"invalid_design"`, `"invalid_input"`, `"analysis_failed"`,
+    /// `"output_failed"`): the reason of a failed row of a batch.
+    pub fn reason(&self) -> &'static str {
+        match self {
+            Self::Design(_) => "invalid_design",
+            Self::Solve(e) => e.reason(),
+            Self::Input(_) => "invalid_input",
+            Self::Analysis(_) => "analysis_failed",
+            #[cfg(feature = "plots")]
+            Self::Plot(_) => "output_failed",
+            Self::Output { .. } => "output_failed",
+        }
+    }
 }
 
 impl From<crate::output::WriteError> for Error {

@@ -127,7 +127,8 @@ impl TdcrSolver {
     /// `init` if given (and of the right mode), else from the cold guess of MODEL.md §9.
     ///
     /// # Errors
-    /// [`Error::Input`] for bad control values; [`Error::Solve`] if Newton fails, with
+    /// [`Error::Input`] for bad control values or a non-finite value in `init`
+    /// (named `init.u0[i]`, `init.v0[i]`, `init.gammas[k]`); [`Error::Solve`] if Newton fails, with
     /// the residual norm and iteration count, or if the solution's integration does not
     /// resolve the leg ([`SolveError::UnderResolved`]: a tip frame off a rotation).
     pub fn solve(
@@ -137,6 +138,9 @@ impl TdcrSolver {
         init: Option<&TdcrState>,
     ) -> Result<TdcrSolution, Error> {
         self.check_control(control, wrench)?;
+        if let Some(s) = init {
+            check_init(s)?;
+        }
         let nt = self.model.n_tendons;
         let displacement = matches!(control, TendonControl::Displacement(_));
         let n_gamma = if displacement { nt } else { 0 };
@@ -223,6 +227,27 @@ impl TdcrSolver {
             TdcrSystem::new(&self.model, &mut self.leg, &mut self.sens, control, wrench);
         system.residual(&x, &mut r)?;
         Ok(r)
+    }
+}
+
+/// Every value of a warm start finite (a NaN ran Newton from a NaN guess).
+fn check_init(s: &TdcrState) -> Result<(), Error> {
+    let mut v = Violations::default();
+    for (name, values) in [
+        ("u0", &s.u0[..]),
+        ("v0", &s.v0[..]),
+        ("gammas", &s.gammas[..]),
+    ] {
+        for (i, x) in values.iter().enumerate() {
+            if !x.is_finite() {
+                v.push(format!("init.{name}[{i}]"), x, "a finite number");
+            }
+        }
+    }
+    if v.0.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Input(v))
     }
 }
 

@@ -48,6 +48,11 @@ pub struct StepResult {
     /// Why Newton stopped, where a failed step's Newton run stopped short of the
     /// tolerance (`None` when it converged, diverged or failed otherwise).
     pub stop_reason: Option<StopReason>,
+    /// Why a failed step failed, snake_case, for every failure ([`Error::reason`]: the
+    /// stop reason, or `"diverged"`, `"invalid_input"`, ...; `None` when it converged).
+    /// Not in the CLI's JSON (its `stop_reason` and `error` tell it).
+    #[serde(skip)]
+    pub failure_reason: Option<&'static str>,
     /// Wall time of the solve \[µs\].
     pub solve_time_us: f64,
 }
@@ -119,6 +124,7 @@ pub fn run_trajectory_from(
                     residual_norm: Some(sol.report.residual_norm),
                     error: None,
                     stop_reason: None,
+                    failure_reason: None,
                     solve_time_us: sol.solve_time_us,
                 };
                 state = Some(sol.state);
@@ -162,6 +168,7 @@ pub fn run_trajectory_from(
                     residual_norm,
                     error: Some(e.to_string()),
                     stop_reason,
+                    failure_reason: Some(e.reason()),
                     solve_time_us: elapsed,
                 }
             }
@@ -214,6 +221,7 @@ mod tests {
             residual_norm: None,
             error: (!ok).then(|| "why".to_string()),
             stop_reason: None,
+            failure_reason: (!ok).then_some("diverged"),
             solve_time_us: t,
         };
         let s = stats_of(&[

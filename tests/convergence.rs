@@ -117,3 +117,29 @@ fn a_millimetre_rod_under_millinewtons_is_as_accurate_as_a_large_one() {
     eprintln!("millimetre rod: tip error {error:.2e} L");
     assert!(error <= 1e-8, "tip error {error:.2e} L");
 }
+
+/// A warm start with a non-finite value is refused by name (it ran Newton from a NaN
+/// guess); a finite one of the other control mode is still ignored for the cold guess.
+#[test]
+fn a_non_finite_warm_start_is_refused_by_name() {
+    let robot = edited_reference(&[]);
+    let mut solver = TdcrSolver::new(&robot);
+    let control = TendonControl::Tension(vec![0.5, 0.0]);
+    let solved = solver.solve(&control, &TipWrench::default(), None).unwrap();
+    let mut bad = solved.state.clone();
+    bad.v0[2] = f64::NAN;
+    let e = solver
+        .solve(&control, &TipWrench::default(), Some(&bad))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("init.v0[2] = NaN: expected a finite number"),
+        "{e}"
+    );
+    let other_mode = TendonControl::Displacement(vec![-1e-4, 1e-4]);
+    assert!(
+        solver
+            .solve(&other_mode, &TipWrench::default(), Some(&solved.state))
+            .is_ok()
+    );
+}

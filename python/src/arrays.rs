@@ -4,19 +4,50 @@
 
 use numpy::ndarray::{Array2, ArrayViewD};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
 
 /// The elements of `obj` as a float64 array (converted by `numpy.asarray` if needed).
+/// Real numbers only: complex values (numpy dropped their imaginary part with a
+/// warning), strings (numpy parsed them) and dates are refused. An exception that is
+/// not a conversion's (KeyboardInterrupt during a long conversion) passes unchanged.
 fn readonly<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
         return Ok(a);
     }
+    let not_numbers = |e: PyErr| {
+        if e.is_instance_of::<PyException>(obj.py()) {
+            PyValueError::new_err(format!("{name}: not an array of numbers ({e})"))
+        } else {
+            e
+        }
+    };
     let numpy = obj.py().import("numpy")?;
+    let plain = numpy.call_method1("asarray", (obj,)).map_err(not_numbers)?;
+    let kind: String = plain
+        .getattr("dtype")
+        .and_then(|d| d.getattr("kind"))
+        .and_then(|k| k.extract())
+        .map_err(not_numbers)?;
+    let what = match kind.as_str() {
+        "c" => Some("complex numbers"),
+        "U" | "S" => Some("strings"),
+        "M" | "m" => Some("dates or time spans"),
+        "V" => Some("structured records"),
+        _ => None,
+    };
+    if let Some(what) = what {
+        return Err(PyValueError::new_err(format!(
+            "{name}: {what} (dtype {}): expected real numbers",
+            plain
+                .getattr("dtype")
+                .map_or_else(|_| kind.clone(), |d| d.to_string())
+        )));
+    }
     numpy
-        .call_method1("asarray", (obj, "float64"))
+        .call_method1("asarray", (plain, "float64"))
         .and_then(|a| a.extract::<PyReadonlyArrayDyn<'py, f64>>())
-        .map_err(|e| PyValueError::new_err(format!("{name}: not an array of numbers ({e})")))
+        .map_err(not_numbers)
 }
 
 /// Checks every element is finite.

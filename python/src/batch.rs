@@ -4,7 +4,9 @@
 //! [`tdpcr::trajectory::run_trajectory`]).
 //!
 //! Convention for a row whose solve failed: `converged[k]` is False, `errors[k]` says
-//! why, `iterations[k]` counts the Newton iterations done, and every other numeric
+//! why and `reasons[k]` names why in snake_case (as `ConvergenceError.reason`; also
+//! `"invalid_input"` for a row the library refused), `iterations[k]` counts the Newton
+//! iterations done, and every other numeric
 //! output of the row (position, rotation, rotvec, q, tensions, residual_norm,
 //! solve_time_us) is 0, never NaN: read rows through the `converged` mask.
 
@@ -80,6 +82,7 @@ struct Stacked {
     solve_time_us: Array1<f64>,
     converged: Array1<bool>,
     errors: BTreeMap<usize, String>,
+    reasons: BTreeMap<usize, &'static str>,
 }
 
 impl Stacked {
@@ -94,6 +97,7 @@ impl Stacked {
             solve_time_us: Array1::zeros(m),
             converged: Array1::from_elem(m, false),
             errors: BTreeMap::new(),
+            reasons: BTreeMap::new(),
         }
     }
 
@@ -126,6 +130,13 @@ impl Stacked {
         self.converged[k] = true;
     }
 
+    /// Row `k` failed: `error` says why, `reason` names why.
+    fn fail(&mut self, k: usize, iterations: usize, error: String, reason: &'static str) {
+        self.iterations[k] = iterations as u64;
+        self.errors.insert(k, error);
+        self.reasons.insert(k, reason);
+    }
+
     fn into_dict<'py>(self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let out = PyDict::new(py);
         out.set_item("position", self.position.into_pyarray(py))?;
@@ -137,6 +148,7 @@ impl Stacked {
         out.set_item("solve_time_us", self.solve_time_us.into_pyarray(py))?;
         out.set_item("converged", self.converged.into_pyarray(py))?;
         out.set_item("errors", self.errors)?;
+        out.set_item("reasons", self.reasons)?;
         Ok(out)
     }
 }
@@ -177,10 +189,7 @@ pub fn stack_solutions<'py>(
                     }
                 }
             }
-            Err(e) => {
-                stacked.iterations[k] = failed_iterations(e) as u64;
-                stacked.errors.insert(k, e.to_string());
-            }
+            Err(e) => stacked.fail(k, failed_iterations(e), e.to_string(), e.reason()),
         }
     }
     let out = stacked.into_dict(py)?;
@@ -207,9 +216,9 @@ pub fn stack_steps<'py>(
                 s.solve_time_us,
             );
         } else {
-            stacked.iterations[k] = s.iterations as u64;
             let why = s.error.clone().unwrap_or_default();
-            stacked.errors.insert(k, why);
+            let reason = s.failure_reason.unwrap_or("unknown");
+            stacked.fail(k, s.iterations, why, reason);
         }
     }
     stacked.into_dict(py)

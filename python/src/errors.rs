@@ -50,17 +50,14 @@ pub fn to_py_err(py: Python<'_>, e: Error) -> PyErr {
 
 /// `ConvergenceError` with `reason`, `residual_norm` and `iterations` set.
 fn convergence_error(py: Python<'_>, e: &SolveError, message: String) -> PyErr {
-    let (reason, residual_norm, iterations) = match e {
+    let reason = e.reason();
+    let (residual_norm, iterations) = match e {
         SolveError::NotConverged {
             iterations,
             residual_norm,
-            reason,
             ..
-        } => (reason.as_str(), Some(*residual_norm), Some(*iterations)),
-        SolveError::NonFinite { .. } => ("non_finite", None, None),
-        SolveError::Diverged { .. } => ("diverged", None, None),
-        SolveError::UnderResolved { .. } => ("under_resolved", None, None),
-        SolveError::TrajectoryStepsFailed { .. } => ("trajectory_steps_failed", None, None),
+        } => (Some(*residual_norm), Some(*iterations)),
+        _ => (None, None),
     };
     let err = ConvergenceError::new_err(message);
     let value = err.value(py);

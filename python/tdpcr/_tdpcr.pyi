@@ -211,7 +211,7 @@ class Robot:
         ``threads``: rayon workers (None: all cores). Keys: ``position`` (m, 3) [m],
         ``rotation`` (m, 3, 3), ``rotvec`` (m, 3) [rad], ``q`` (m, n) [m], ``tensions``
         (m, 3, n_t) [N], ``iterations`` (m,) uint64, ``residual_norm`` (m,),
-        ``solve_time_us`` (m,) [µs], ``converged`` (m,) bool, ``errors`` {row: message} (rows in order).
+        ``solve_time_us`` (m,) [µs], ``converged`` (m,) bool, ``errors`` {row: message} and ``reasons`` {row: snake_case reason, as ``ConvergenceError.reason``} (rows in order).
         A failed row is 0 in every numeric output but ``iterations`` (never NaN): read
         rows through ``converged``.
         """

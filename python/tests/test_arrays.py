@@ -1,6 +1,7 @@
 """Inputs of any array-like form give the same bits; outputs are float64 arrays."""
 
 import numpy as np
+import pytest
 
 from conftest import Q6
 
@@ -29,3 +30,29 @@ def test_outputs_are_writable_float64_copies(robot):
     assert p.dtype == np.float64 and p.flags["C_CONTIGUOUS"]
     p[0] = 1.0
     assert s.position[0] != 1.0
+
+
+@pytest.mark.parametrize(
+    "q, what",
+    [
+        (np.array(Q6) + 1e-3j, "complex numbers"),
+        ([str(x) for x in Q6], "strings"),
+        (np.array(Q6).astype("datetime64[s]"), "dates"),
+    ],
+)
+def test_complex_strings_and_dates_are_refused(robot, q, what):
+    # numpy would drop the imaginary parts (with a warning) or parse the strings.
+    with pytest.raises(ValueError, match=f"^q: {what}.*expected real numbers"):
+        robot.fk(q)
+
+
+def test_an_interrupt_during_conversion_is_not_a_value_error(robot):
+    class Interrupting:
+        def __float__(self):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        robot.fk([Interrupting()] * 6)
+    # An element that is no number stays a ValueError naming the argument.
+    with pytest.raises(ValueError, match="^q: not an array of numbers"):
+        robot.fk([object()] * 6)

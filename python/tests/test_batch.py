@@ -76,6 +76,12 @@ def test_failed_steps_are_zero_masked_and_the_next_starts_cold(design):
     batch = tdpcr.Robot(design).trajectory_fk(Q)
     np.testing.assert_array_equal(batch["converged"], [True, False, True])
     assert set(batch["errors"]) == {1} and "converge" in batch["errors"][1]
+    # The row's reason is the one the equivalent warm solve raises.
+    loop = tdpcr.Robot(design)
+    first = loop.fk(Q[0])
+    with pytest.raises(tdpcr.ConvergenceError) as single:
+        loop.fk(Q[1], init=first.state)
+    assert batch["reasons"] == {1: single.value.reason}
     for key in KEYS + ("residual_norm", "solve_time_us"):
         assert not np.isnan(batch[key]).any()
         np.testing.assert_array_equal(batch[key][1], 0.0, err_msg=key)
@@ -88,6 +94,7 @@ def test_ik_many_failures_and_options(robot):
     poses = np.vstack([path(1), path(1)])
     batch = robot.ik_many(poses, max_iterations=1)
     assert not batch["converged"].any() and set(batch["errors"]) == {0, 1}
+    assert batch["reasons"] == {0: "iteration_limit", 1: "iteration_limit"}
     np.testing.assert_array_equal(batch["q"], 0.0)
 
 
@@ -148,5 +155,6 @@ def test_failed_rows_are_listed_in_row_order(robot):
     rows = np.tile(Q6, (6, 1))
     rows[[4, 1, 3]] = 1.0  # far beyond the limits: these rows fail
     d = robot.fk_many(rows)
-    assert list(d["errors"]) == [1, 3, 4]
+    assert list(d["errors"]) == [1, 3, 4] and list(d["reasons"]) == [1, 3, 4]
+    assert all(r.isidentifier() and r.islower() for r in d["reasons"].values())
     assert not d["converged"][[1, 3, 4]].any() and d["converged"][[0, 2, 5]].all()
