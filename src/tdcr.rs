@@ -109,13 +109,8 @@ impl TdcrSolver {
                 v.push(format!("{name}[{k}]"), x, &rule);
             }
         }
-        for (what, vec) in [("tip_force", &wrench.force), ("tip_moment", &wrench.moment)] {
-            for (i, x) in vec.iter().enumerate() {
-                if !x.is_finite() {
-                    v.push(format!("{what}[{i}]"), x, "a finite number");
-                }
-            }
-        }
+        push_non_finite(&mut v, "tip_force", wrench.force.as_slice());
+        push_non_finite(&mut v, "tip_moment", wrench.moment.as_slice());
         if v.0.is_empty() {
             Ok(())
         } else {
@@ -230,20 +225,21 @@ impl TdcrSolver {
     }
 }
 
+/// Each non-finite entry of `values` as the violation `name[i]`.
+fn push_non_finite(v: &mut Violations, name: &str, values: &[f64]) {
+    for (i, x) in values.iter().enumerate() {
+        if !x.is_finite() {
+            v.push(format!("{name}[{i}]"), x, "a finite number");
+        }
+    }
+}
+
 /// Every value of a warm start finite (a NaN ran Newton from a NaN guess).
 fn check_init(s: &TdcrState) -> Result<(), Error> {
     let mut v = Violations::default();
-    for (name, values) in [
-        ("u0", &s.u0[..]),
-        ("v0", &s.v0[..]),
-        ("gammas", &s.gammas[..]),
-    ] {
-        for (i, x) in values.iter().enumerate() {
-            if !x.is_finite() {
-                v.push(format!("init.{name}[{i}]"), x, "a finite number");
-            }
-        }
-    }
+    push_non_finite(&mut v, "init.u0", &s.u0);
+    push_non_finite(&mut v, "init.v0", &s.v0);
+    push_non_finite(&mut v, "init.gammas", &s.gammas);
     if v.0.is_empty() {
         Ok(())
     } else {
