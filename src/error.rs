@@ -468,6 +468,17 @@ pub enum Error {
     #[cfg(feature = "plots")]
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// The caller asked a long run to stop (its stop flag: a workspace sweep's
+    /// [`crate::workspace::sweep_workspace_until`]); nothing of the run is returned.
+    #[error("stopped on request after {done} of {total} {what}")]
+    Stopped {
+        /// What the run counts (`"rays"`).
+        what: &'static str,
+        /// Units finished.
+        done: usize,
+        /// Units in the run.
+        total: usize,
+    },
     /// An output file or directory could not be written.
     #[error("cannot write {path}: {source}")]
     Output {
@@ -488,6 +499,7 @@ impl Error {
             Self::Solve(e) => e.reason(),
             Self::Input(_) => "invalid_input",
             Self::Analysis(_) => "analysis_failed",
+            Self::Stopped { .. } => "stopped",
             #[cfg(feature = "plots")]
             Self::Plot(_) => "output_failed",
             Self::Output { .. } => "output_failed",

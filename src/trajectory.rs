@@ -7,6 +7,8 @@
 //! no residual (`residual_norm` is `None`) unless Newton ran and stopped, and its
 //! `error` says why; [`Stats`] counts the failed steps and names the first.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use nalgebra::Rotation3;
 use serde::Serialize;
 
@@ -98,6 +100,19 @@ pub fn run_trajectory_from(
     extra: &Wrench,
     init: Option<RobotState>,
 ) -> (Vec<StepResult>, Stats) {
+    run_trajectory_until(solver, targets, extra, init, &AtomicBool::new(false))
+}
+
+/// As [`run_trajectory_from`], stopping before the next step once `stop` is set (by
+/// another thread: a user's interrupt): the steps done so far are returned, fewer than
+/// the targets.
+pub fn run_trajectory_until(
+    solver: &mut Solver,
+    targets: &Targets,
+    extra: &Wrench,
+    init: Option<RobotState>,
+    stop: &AtomicBool,
+) -> (Vec<StepResult>, Stats) {
     let mut state: Option<RobotState> = init;
     let mut steps = Vec::new();
     let count = match targets {
@@ -105,6 +120,9 @@ pub fn run_trajectory_from(
         Targets::Actuations(q) => q.len(),
     };
     for step in 0..count {
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
         let start = std::time::Instant::now();
         // Warm start from the last solution: the solver predicts from its Jacobian there.
         let result = match targets {
@@ -208,6 +226,25 @@ fn stats_of(steps: &[StepResult]) -> Stats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Once the stop flag is set, no further step is solved: the steps so far return.
+    #[test]
+    fn a_trajectory_stops_before_the_next_step_when_asked() {
+        let design = crate::Tdpcr::from_ron_file(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/designs/lilge2022.ron"
+        ))
+        .unwrap();
+        let mut solver = Solver::new(&design).unwrap();
+        let targets = Targets::Actuations(vec![vec![0.0; 6]; 3]);
+        let w = Wrench::default();
+        let stop = AtomicBool::new(false);
+        let (all, _) = run_trajectory_until(&mut solver, &targets, &w, None, &stop);
+        assert_eq!(all.len(), 3);
+        stop.store(true, Ordering::Relaxed);
+        let (none, stats) = run_trajectory_until(&mut solver, &targets, &w, None, &stop);
+        assert!(none.is_empty() && stats.steps == 0, "{none:?}");
+    }
 
     #[test]
     fn stats_use_all_steps() {

@@ -704,3 +704,38 @@ fn cells_get_the_measures_of_their_states_bit_for_bit() {
         }
     }
 }
+
+/// A sweep asked to stop (from another thread, once some rays are done) skips the rays
+/// not yet started and returns `Error::Stopped` with its progress; one whose flag is
+/// never set gives the plain sweep's map.
+#[test]
+fn a_sweep_stops_when_asked_and_is_unchanged_when_not() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use tdpcr::error::Error;
+    use tdpcr::workspace::{Progress, sweep_workspace_until};
+    let design = reference();
+    let settings = coarse();
+    let stop = AtomicBool::new(false);
+    // Stops after the third ray (of 8 per plane, 3 planes).
+    let progress = |p: Progress| {
+        if p.rays_done >= 3 {
+            stop.store(true, Ordering::Relaxed);
+        }
+    };
+    match sweep_workspace_until(&design, &settings, &progress, &stop) {
+        Err(Error::Stopped { what, done, total }) => {
+            assert_eq!(what, "rays");
+            assert!(done >= 3 && done < total, "{done} of {total}");
+        }
+        other => panic!(
+            "expected Error::Stopped, got {:?}",
+            other.map(|m| m.summary)
+        ),
+    }
+    let never = AtomicBool::new(false);
+    let map = sweep_workspace_until(&design, &settings, &|_| {}, &never).unwrap();
+    assert_eq!(
+        comparable(&map),
+        comparable(&sweep_workspace(&design, &settings).unwrap())
+    );
+}

@@ -11,6 +11,7 @@
 //! solve_time_us) is 0, never NaN: read rows through the `converged` mask.
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{Rotation3, Vector3};
 use numpy::IntoPyArray;
@@ -33,13 +34,15 @@ pub fn pose_of_row(row: &[f64]) -> Pose {
 }
 
 /// `solve` of every item on `threads` workers (rayon's global pool if `None`), one
-/// clone of `template` per worker; results in input order.
+/// clone of `template` per worker; results in input order. Once `stop` is set the items
+/// not yet started are skipped (`None`).
 pub fn parallel<S, I, R>(
     template: &S,
     items: &[I],
     threads: Option<usize>,
+    stop: &AtomicBool,
     solve: impl Fn(&mut S, &I) -> R + Sync,
-) -> Result<Vec<R>, String>
+) -> Result<Vec<Option<R>>, String>
 where
     S: Clone + Send + Sync,
     I: Sync,
@@ -48,7 +51,10 @@ where
     let run = || {
         items
             .par_iter()
-            .map_init(|| template.clone(), &solve)
+            .map_init(
+                || template.clone(),
+                |s, item| (!stop.load(Ordering::Relaxed)).then(|| solve(s, item)),
+            )
             .collect()
     };
     match threads {

@@ -9,6 +9,7 @@
 //! - `solution.rs`: `State` (a configuration, a warm start) and `Solution`;
 //! - `robot.rs`: `Robot` (fk, ik, analyze, the batches, workspace);
 //! - `batch.rs`: batches as stacked arrays (parallel `*_many`, warm `trajectory_*`);
+//! - `interrupt.rs`: long calls that Ctrl-C stops (the work on a thread of its own);
 //! - `tdcr.rs`: `Tdcr` (one continuum robot alone, tension or displacement control);
 //! - `workspace.rs`: the workspace sweep as columns of arrays, with a progress callback;
 //! - `analysis.rs`: the analysis of a solution as a dict of arrays and dicts;
@@ -20,6 +21,7 @@ mod arrays;
 mod batch;
 mod design;
 mod errors;
+mod interrupt;
 mod optim;
 mod robot;
 mod solution;

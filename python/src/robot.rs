@@ -12,7 +12,7 @@ use pyo3::types::PyDict;
 use tdpcr::boundary::FiniteDifference;
 use tdpcr::kinetostatics::{JacobianMethod, Objective, Redundancy};
 use tdpcr::model::Model;
-use tdpcr::trajectory::{StepResult, Targets, run_trajectory};
+use tdpcr::trajectory::{StepResult, Targets, run_trajectory_until};
 use tdpcr::workspace::{CollisionPolicy, WorkspaceSettings};
 use tdpcr::{AnalysisSettings, Error, NewtonSettings, Pose, RobotState, Solver, Wrench};
 
@@ -21,6 +21,7 @@ use crate::arrays::vector;
 use crate::batch::{parallel, pose_of_row, stack_solutions, stack_steps, threads_arg};
 use crate::design::Design;
 use crate::errors::to_py_err;
+use crate::interrupt;
 use crate::solution::{Solution, State};
 
 /// FK and IK of one design; holds the solver and all its buffers (not shared between
@@ -360,7 +361,7 @@ impl Robot {
         let targets = Targets::Actuations(crate::arrays::rows(q, "q", self.n_actuators())?);
         let wrench = wrench_arg(wrench)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        let steps = self.trajectory(py, &o, None, &targets, &wrench);
+        let steps = self.trajectory(py, &o, None, &targets, &wrench)?;
         stack_steps(py, self.n_actuators(), &steps)
     }
 
@@ -384,7 +385,7 @@ impl Robot {
         let wrench = wrench_arg(wrench)?;
         let redundancy = self.redundancy(limits, reference)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        let steps = self.trajectory(py, &o, Some(redundancy), &targets, &wrench);
+        let steps = self.trajectory(py, &o, Some(redundancy), &targets, &wrench)?;
         stack_steps(py, self.n_actuators(), &steps)
     }
 
@@ -474,13 +475,14 @@ impl Robot {
         if let Some(r) = redundancy {
             template.redundancy = r;
         }
-        let results = py
-            .detach(|| {
-                parallel(&template, items, threads, |s, item| {
-                    solve(s, item, &o.settings)
-                })
+        let rows = interrupt::run(py, items.len() >= interrupt::MIN_ROWS, |stop| {
+            parallel(&template, items, threads, stop, |s, item| {
+                solve(s, item, &o.settings)
             })
-            .map_err(PyValueError::new_err)?;
+        })?
+        .map_err(PyValueError::new_err)?;
+        // Every row solved: a stopped run raised the signal's exception above.
+        let results: Vec<_> = rows.into_iter().flatten().collect();
         stack_solutions(py, self.solver.model(), &results)
     }
 
@@ -492,11 +494,17 @@ impl Robot {
         redundancy: Option<Redundancy>,
         targets: &Targets,
         wrench: &Wrench,
-    ) -> Vec<StepResult> {
+    ) -> PyResult<Vec<StepResult>> {
         let saved = self.solver.settings;
         self.solver.settings = o.settings;
-        let (steps, _) = self.with_call(o.jacobian, redundancy, |s| {
-            py.detach(|| run_trajectory(s, targets, wrench))
+        let rows = match targets {
+            Targets::Poses(p) => p.len(),
+            Targets::Actuations(q) => q.len(),
+        };
+        let steps = self.with_call(o.jacobian, redundancy, |s| {
+            interrupt::run(py, rows >= interrupt::MIN_ROWS, |stop| {
+                run_trajectory_until(s, targets, wrench, None, stop).0
+            })
         });
         self.solver.settings = saved;
         steps

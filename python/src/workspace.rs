@@ -1,7 +1,7 @@
 //! `Robot.workspace`: the library's workspace sweep
-//! ([`tdpcr::workspace::sweep_workspace_with_progress`]) without the GIL, its cells as
-//! columns of arrays, and an optional progress callback called with the GIL at most
-//! about four times a second.
+//! ([`tdpcr::workspace::sweep_workspace_until`]) without the GIL, stopped by Ctrl-C
+//! (`interrupt.rs`), its cells as columns of arrays, and an optional progress callback
+//! called with the GIL at most about four times a second.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -15,11 +15,12 @@ use serde_json::Value;
 use tdpcr::Tdpcr;
 use tdpcr::workspace::{
     PointMetrics, Progress, Rconds, Singularity, WorkspaceMap, WorkspacePoint, WorkspaceSettings,
-    sweep_workspace_with_progress,
+    sweep_workspace_until,
 };
 
 use crate::analysis::json_value;
 use crate::errors::to_py_err;
+use crate::interrupt;
 
 /// Shortest time between two progress calls.
 const PROGRESS_PERIOD: Duration = Duration::from_millis(250);
@@ -67,14 +68,14 @@ pub fn sweep<'py>(
         last: Mutex::new(None),
         error: Mutex::new(None),
     });
-    let map = py.detach(|| {
+    let map = interrupt::run(py, true, |stop| {
         let report = |p: Progress| {
             if let Some(c) = &callback {
                 c.report(p);
             }
         };
-        sweep_workspace_with_progress(design, settings, &report)
-    });
+        sweep_workspace_until(design, settings, &report, stop)
+    })?;
     if let Some(e) = callback.and_then(|c| c.error.into_inner().ok().flatten()) {
         return Err(e);
     }

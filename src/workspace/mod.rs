@@ -69,7 +69,7 @@ mod settings;
 mod summary;
 mod walk;
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -157,6 +157,21 @@ pub fn sweep_workspace_with_progress(
     settings: &WorkspaceSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<WorkspaceMap, Error> {
+    sweep_workspace_until(design, settings, progress, &AtomicBool::new(false))
+}
+
+/// As [`sweep_workspace_with_progress`], stopping early once `stop` is set (by another
+/// thread: a user's interrupt): the rays not yet started are skipped, those under way
+/// finish (a ray takes milliseconds), and the sweep returns [`Error::Stopped`].
+///
+/// # Errors
+/// As [`sweep_workspace`]; [`Error::Stopped`] when `stop` was set during the sweep.
+pub fn sweep_workspace_until(
+    design: &Tdpcr,
+    settings: &WorkspaceSettings,
+    progress: &(dyn Fn(Progress) + Sync),
+    stop: &AtomicBool,
+) -> Result<WorkspaceMap, Error> {
     design.validate("design")?;
     settings.validate()?;
     let start = Instant::now();
@@ -190,10 +205,18 @@ pub fn sweep_workspace_with_progress(
                 settings,
                 work: &work,
                 on_ray_done: &on_ray_done,
+                stop,
             };
             job.sweep(*k, origin, n_rays)
         })
         .collect();
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::Stopped {
+            what: "rays",
+            done: rays_done.load(Ordering::Relaxed),
+            total: rays_total,
+        });
+    }
     let mut points = Vec::new();
     let mut samples = Vec::new();
     let mut ray_ends = RayEnds::default();

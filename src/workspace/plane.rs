@@ -2,7 +2,7 @@
 //! configuration ([`reach_planes`]), then sweeping each one ([`PlaneJob::sweep`]): its rays
 //! in parallel and one representative per cell.
 
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -164,6 +164,8 @@ pub(super) struct PlaneJob<'a> {
     pub(super) work: &'a Work,
     /// Called after every ray.
     pub(super) on_ray_done: &'a (dyn Fn() + Sync),
+    /// Set when the sweep is to stop: rays not yet started are skipped.
+    pub(super) stop: &'a AtomicBool,
 }
 
 impl PlaneJob<'_> {
@@ -177,12 +179,24 @@ impl PlaneJob<'_> {
             .map_init(
                 || self.worker.clone(),
                 |w, j| {
+                    if self.stop.load(Ordering::Relaxed) {
+                        return Ray::skipped();
+                    }
                     let ray = w.follow_ray(model, settings, origin, start.as_ref(), j, self.work);
                     (self.on_ray_done)();
                     ray
                 },
             )
             .collect();
+        if self.stop.load(Ordering::Relaxed) {
+            // Not returned: no measures for its cells.
+            return PlaneSweep {
+                points: Vec::new(),
+                samples: Vec::new(),
+                ray_ends: RayEnds::default(),
+                first_error: None,
+            };
+        }
         let mut ray_ends = RayEnds::default();
         for r in &rays {
             ray_ends.count(r.end);

@@ -121,6 +121,17 @@ pub(super) struct Ray {
     pub(super) error: Option<String>,
 }
 
+impl Ray {
+    /// A ray not followed (a sweep asked to stop; its result is not returned).
+    pub(super) fn skipped() -> Self {
+        Self {
+            samples: Vec::new(),
+            end: End::Failed,
+            error: None,
+        }
+    }
+}
+
 /// A solver and collision buffers; cloned once per rayon job split.
 #[derive(Debug, Clone)]
 pub(super) struct Worker {

@@ -1,0 +1,72 @@
+//! Long calls that Ctrl-C stops. Python runs signal handlers only on its main thread, and
+//! a call that releases the GIL and waits for its work (rayon's workers) never looks for
+//! them: Ctrl-C waited for the end of a sweep or a batch. Here the work runs on a scoped
+//! thread without the GIL while the calling thread checks for signals every
+//! [`CHECK_PERIOD`]; on one (the handler's exception: `KeyboardInterrupt` for Ctrl-C) the
+//! work's stop flag is set, the work ends at its next check (a workspace ray, a batch
+//! row, a trajectory step) and the exception is raised. Starting the thread costs tens of
+//! microseconds, so short calls run on the calling thread as before ([`MIN_ROWS`]).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::Duration;
+
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+
+/// How often the calling thread looks for signals.
+const CHECK_PERIOD: Duration = Duration::from_millis(50);
+
+/// Batches and trajectories of fewer rows run on the calling thread, not interruptible
+/// (under a millisecond of solves at the designs' warm-step speeds; a thread's start is
+/// tens of microseconds).
+pub const MIN_ROWS: usize = 16;
+
+/// `work(stop)` without the GIL, stopped by a signal: see the module documentation. With
+/// `interruptible` false it runs on this thread (the flag never set).
+///
+/// # Errors
+/// The signal handler's exception (the work was asked to stop and has ended), or
+/// `RuntimeError` if the work's thread ended without a result (a panic).
+pub fn run<T: Send>(
+    py: Python<'_>,
+    interruptible: bool,
+    work: impl FnOnce(&AtomicBool) -> T + Send,
+) -> PyResult<T> {
+    let stop = AtomicBool::new(false);
+    if !interruptible {
+        return Ok(py.detach(|| work(&stop)));
+    }
+    std::thread::scope(|scope| {
+        let (tx, rx) = mpsc::sync_channel(1);
+        let flag = &stop;
+        scope.spawn(move || {
+            // The receiver is gone only after a signal, when the result is not wanted.
+            let _ = tx.send(work(flag));
+        });
+        let mut rx = rx;
+        loop {
+            let (back, received) = py.detach(move || {
+                let received = rx.recv_timeout(CHECK_PERIOD);
+                (rx, received)
+            });
+            rx = back;
+            match received {
+                Ok(value) => return Ok(value),
+                Err(RecvTimeoutError::Timeout) => {
+                    if let Err(e) = py.check_signals() {
+                        stop.store(true, Ordering::Relaxed);
+                        // The work ends at its next check; its result is dropped.
+                        py.detach(move || drop(rx.recv()));
+                        return Err(e);
+                    }
+                }
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(PyRuntimeError::new_err(
+                        "the call's worker thread ended without a result",
+                    ));
+                }
+            }
+        }
+    })
+}
