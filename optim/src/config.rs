@@ -274,15 +274,15 @@ impl OptimConfig {
         if b.evaluations == Some(0) {
             v.push("budget.evaluations", 0, ">= 1");
         }
-        if let Some(t) = b.wall_time_s {
-            if !(t.is_finite() && t > 0.0) {
-                v.push("budget.wall_time_s", t, "> 0 s");
-            }
+        if let Some(t) = b.wall_time_s
+            && !(t.is_finite() && t > 0.0)
+        {
+            v.push("budget.wall_time_s", t, "> 0 s");
         }
-        if let Some(p) = self.population {
-            if p < 2 {
-                v.push("population", p, ">= 2");
-            }
+        if let Some(p) = self.population
+            && p < 2
+        {
+            v.push("population", p, ">= 2");
         }
         if !(self.initial_step > 0.0 && self.initial_step <= 1.0) {
             v.push(

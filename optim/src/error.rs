@@ -30,6 +30,17 @@ pub enum OptimError {
         /// The existing log.
         path: PathBuf,
     },
+    /// Another search (in this or another process) is running in the same directory.
+    #[error(
+        "{path} is in use by another search running in that directory: wait for it to end, or choose another --out"
+    )]
+    RunInUse {
+        /// The locked log.
+        path: PathBuf,
+    },
+    /// The run directory is an empty path.
+    #[error("the output directory is an empty path: name a directory (--out)")]
+    NoOutDir,
     /// `--resume` without a run to continue.
     #[error("--resume: no run to continue ({path} is missing)")]
     NoRun {
@@ -103,6 +114,8 @@ impl OptimError {
             self,
             Self::Config(_)
                 | Self::RunExists { .. }
+                | Self::RunInUse { .. }
+                | Self::NoOutDir
                 | Self::NoRun { .. }
                 | Self::ResumeMismatch { .. }
                 | Self::ReplayMismatch { .. }

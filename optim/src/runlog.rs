@@ -136,13 +136,18 @@ impl ResultsLog {
     /// [`OptimError::RunExists`] if `dir` already holds a log with records;
     /// [`OptimError::Io`].
     pub fn create(dir: &Path, info: &RunInfo) -> Result<Self, OptimError> {
+        check_dir(dir)?;
         std::fs::create_dir_all(dir).map_err(|source| OptimError::io(dir, source))?;
         let path = dir.join(LOG_FILE);
-        if std::fs::metadata(&path).is_ok_and(|m| m.len() > 0) {
+        let file = open_locked(&path)?;
+        let len = file
+            .metadata()
+            .map_err(|source| OptimError::io(&path, source))?
+            .len();
+        if len > 0 {
             return Err(OptimError::RunExists { path });
         }
         tdpcr::output::write_atomically(&dir.join(RUN_FILE), run_info_text(info).as_bytes())?;
-        let file = File::create(&path).map_err(|source| OptimError::io(&path, source))?;
         Ok(Self {
             path,
             file: Mutex::new(file),
@@ -160,6 +165,7 @@ impl ResultsLog {
         dir: &Path,
         info: &RunInfo,
     ) -> Result<(Self, BTreeMap<usize, Record>), OptimError> {
+        check_dir(dir)?;
         let run_path = dir.join(RUN_FILE);
         let path = dir.join(LOG_FILE);
         let text = match std::fs::read_to_string(&run_path) {
@@ -177,6 +183,8 @@ impl ResultsLog {
                     .collect(),
             });
         }
+        // Locked before it is read: another search on this directory keeps it.
+        let mut file = open_locked(&path)?;
         let content = std::fs::read_to_string(&path).unwrap_or_default();
         let mut records = BTreeMap::new();
         let mut good_len = 0;
@@ -202,12 +210,6 @@ impl ResultsLog {
                 _ => break,
             }
         }
-        let mut file = OpenOptions::new()
-            .create(true)
-            .write(true)
-            .truncate(false)
-            .open(&path)
-            .map_err(|source| OptimError::io(&path, source))?;
         file.set_len(good_len as u64)
             .and_then(|()| file.seek(SeekFrom::End(0)))
             .map_err(|source| OptimError::io(&path, source))?;
@@ -237,6 +239,38 @@ impl ResultsLog {
     /// The log's path.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+}
+
+/// A run directory that names something: an empty path put the log in the working
+/// directory.
+fn check_dir(dir: &Path) -> Result<(), OptimError> {
+    if dir.as_os_str().is_empty() {
+        return Err(OptimError::NoOutDir);
+    }
+    Ok(())
+}
+
+/// The log at `path` (created if missing, not truncated), locked for this search alone
+/// for as long as the handle lives: a second search on the same directory started a new
+/// log over the first's, and both appended to it.
+///
+/// # Errors
+/// [`OptimError::RunInUse`] if another search (of this or another process) holds it;
+/// [`OptimError::Io`].
+fn open_locked(path: &Path) -> Result<File, OptimError> {
+    let file = OpenOptions::new()
+        .create(true)
+        .write(true)
+        .truncate(false)
+        .open(path)
+        .map_err(|source| OptimError::io(path, source))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(OptimError::RunInUse {
+            path: path.to_path_buf(),
+        }),
+        Err(std::fs::TryLockError::Error(source)) => Err(OptimError::io(path, source)),
     }
 }
 

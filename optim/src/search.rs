@@ -672,10 +672,10 @@ impl<'a> Search<'a> {
             .map(|r| composite.fitness(&r.outcome))
             .collect();
         for r in pending.slots.iter().flatten() {
-            if let Some(c) = r.composite {
-                if self.best.is_none_or(|(b, _)| c > b) {
-                    self.best = Some((c, r.id));
-                }
+            if let Some(c) = r.composite
+                && self.best.is_none_or(|(b, _)| c > b)
+            {
+                self.best = Some((c, r.id));
             }
         }
         let feasible = pending

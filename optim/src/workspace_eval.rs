@@ -197,10 +197,10 @@ pub fn slice_sets(
     let eval = &setup.config.evaluation;
     let figures = setup.config.figures.as_ref();
     let mut designs = vec![("reference", "slices/reference", setup.space.base().clone())];
-    if let Some(best) = result.best_composite() {
-        if let Ok(d) = setup.space.design(&best.x) {
-            designs.push(("best composite", "slices/best_composite", d));
-        }
+    if let Some(best) = result.best_composite()
+        && let Ok(d) = setup.space.design(&best.x)
+    {
+        designs.push(("best composite", "slices/best_composite", d));
     }
     let mut out = Vec::new();
     for (label, dir, design) in designs {

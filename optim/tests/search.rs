@@ -264,3 +264,31 @@ fn the_outputs_load_and_report_the_comparison() {
         assert!(text.starts_with("<svg") && text.contains("circle"), "{svg}");
     }
 }
+
+/// A second search on a directory in use (its log locked by the first, here in the same
+/// process) is refused, new or resumed, and leaves the first's log alone; once the
+/// first has ended the directory can be resumed. An empty directory path is refused (it
+/// put the log in the working directory).
+#[test]
+fn a_directory_in_use_by_another_search_is_refused() {
+    use tdpcr_optim::search::Search;
+    let dir = fresh_dir("in-use");
+    let first = Search::open(setup(6, 1), &dir, false, &Silent).unwrap();
+    for resume in [false, true] {
+        match Search::open(setup(6, 1), &dir, resume, &Silent) {
+            Err(e @ OptimError::RunInUse { .. }) => {
+                assert!(e.is_input_error());
+                assert!(e.to_string().contains("in use by another search"), "{e}");
+            }
+            Err(e) => panic!("resume {resume}: expected RunInUse, got {e}"),
+            Ok(_) => panic!("resume {resume}: a second search opened {}", dir.display()),
+        }
+    }
+    drop(first);
+    assert!(Search::open(setup(6, 1), &dir, true, &Silent).is_ok());
+    match Search::open(setup(6, 1), Path::new(""), false, &Silent) {
+        Err(OptimError::NoOutDir) => {}
+        Err(e) => panic!("expected NoOutDir, got {e}"),
+        Ok(_) => panic!("an empty directory path was accepted"),
+    }
+}

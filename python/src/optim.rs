@@ -219,6 +219,20 @@ impl SearchProblem {
                 candidate.x.len()
             )));
         }
+        // The search's box is [0, 1] in every coordinate (a point outside it was
+        // evaluated as a design beyond the config's bounds); the reference (id 0) is the
+        // base design whatever its x.
+        let outside = candidate
+            .x
+            .iter()
+            .enumerate()
+            .find(|(_, x)| !(0.0..=1.0).contains(*x));
+        if let (Some((i, x)), true) = (outside, candidate.id != 0) {
+            return Err(PyValueError::new_err(format!(
+                "candidate x[{i}] = {x}: expected a number in [0, 1] (the search box; as \
+                 DesignSearch.ask gives it)"
+            )));
+        }
         let evaluation = py.detach(|| evaluate_candidate(&self.setup, &self.evaluator, &candidate));
         Ok(serde_json::to_string(&evaluation).expect("evaluations always serialize"))
     }

@@ -47,10 +47,10 @@ impl ProgressCallback {
             *last = Some(Instant::now());
         }
         Python::attach(|py| {
-            if let Err(e) = self.callable.call1(py, (p.rays_done, p.rays_total)) {
-                if let Ok(mut error) = self.error.lock() {
-                    error.get_or_insert(e);
-                }
+            if let Err(e) = self.callable.call1(py, (p.rays_done, p.rays_total))
+                && let Ok(mut error) = self.error.lock()
+            {
+                error.get_or_insert(e);
             }
         });
     }

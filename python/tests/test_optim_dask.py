@@ -55,7 +55,9 @@ def optim_bin():
         path = pathlib.Path(os.environ["TDPCR_BIN"]).with_name("tdpcr-optim")
         if path.exists():
             return str(path)
-    subprocess.run(["cargo", "build", "--quiet", "--bin", "tdpcr-optim"], cwd=ROOT, check=True)
+    subprocess.run(
+        ["cargo", "build", "--quiet", "-p", "tdpcr-optim", "--bin", "tdpcr-optim"], cwd=ROOT, check=True
+    )
     return str(ROOT / "target" / "debug" / "tdpcr-optim")
 
 

@@ -28,3 +28,28 @@ def test_a_generation_told_in_pieces_stays_open(tmp_path):
     assert "budget" in search.termination
     summary = search.finish("test", 1)
     assert summary["candidates"] == 4
+
+
+def test_a_directory_in_use_and_an_empty_path_are_refused(tmp_path):
+    out = str(tmp_path / "run")
+    first = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
+    # A second search on the same directory would have started its log over the first's.
+    with pytest.raises(ValueError, match="in use by another search"):
+        DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
+    with pytest.raises(ValueError, match="in use by another search"):
+        DesignSearch(str(CONFIG), out, budget_evals=4, seed=9, resume=True)
+    del first
+    with pytest.raises(ValueError, match="empty path"):
+        DesignSearch(str(CONFIG), "", budget_evals=4, seed=9)
+
+
+def test_a_candidate_outside_the_search_box_is_refused(tmp_path):
+    import json
+
+    search = DesignSearch(str(CONFIG), str(tmp_path / "run"), budget_evals=4, seed=9)
+    problem = SearchProblem(search.problem)
+    search.tell([problem.evaluate(c) for c in search.ask()])
+    candidate = json.loads(search.ask()[0])
+    candidate["x"][0] = 1.5
+    with pytest.raises(ValueError, match=r"candidate x\[0\] = 1.5: expected a number in \[0, 1\]"):
+        problem.evaluate(json.dumps(candidate))
