@@ -262,6 +262,11 @@ fn check_non_negative(v: &mut Violations, field: &str, value: f64, unit: &str) {
     }
 }
 
+/// The rule of a length bounded by the longest leg.
+fn within_leg_length() -> String {
+    format!("<= {MAX_LEG_LENGTH} m (the largest leg length)")
+}
+
 /// `value` at most `max` (a finite value; non-finite ones are the other checks').
 fn check_at_most(v: &mut Violations, field: &str, value: f64, max: f64, expected: &str) {
     if value.is_finite() && value > max {
@@ -345,11 +350,7 @@ impl Leg {
             ("backbone_radius", self.backbone_radius),
         ] {
             if radius.is_finite() && radius > MAX_LEG_LENGTH {
-                v.push(
-                    f(field),
-                    radius,
-                    &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
-                );
+                v.push(f(field), radius, &within_leg_length());
             }
         }
         check_positive(v, &f("tendon_stiffness"), self.tendon_stiffness, "N");
@@ -512,7 +513,7 @@ impl Tdpcr {
             "platform.side_length",
             self.platform.side_length,
             MAX_LEG_LENGTH,
-            &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+            &within_leg_length(),
         );
         check_non_negative(&mut v, "platform.mass", self.platform.mass, "kg");
         check_at_most(
@@ -528,7 +529,7 @@ impl Tdpcr {
             "coupling_offset",
             self.coupling_offset,
             MAX_LEG_LENGTH,
-            &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
+            &within_leg_length(),
         );
         if !(self.alpha.is_finite() && self.alpha > 0.0 && self.alpha < PI / 2.0) {
             v.push("alpha", self.alpha, "in (0, pi/2) rad");
@@ -573,13 +574,7 @@ impl Tdpcr {
                 self.actuation_limits.base_translation,
             ),
         ] {
-            check_at_most(
-                &mut v,
-                field,
-                limit,
-                MAX_LEG_LENGTH,
-                &format!("<= {MAX_LEG_LENGTH} m (the largest leg length)"),
-            );
+            check_at_most(&mut v, field, limit, MAX_LEG_LENGTH, &within_leg_length());
         }
         v.into_result(source)
     }

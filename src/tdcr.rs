@@ -122,10 +122,10 @@ impl TdcrSolver {
     /// `init` if given (and of the right mode), else from the cold guess of MODEL.md §9.
     ///
     /// # Errors
-    /// [`Error::Input`] for bad control values or a non-finite value in `init`
-    /// (named `init.u0[i]`, `init.v0[i]`, `init.gammas[k]`); [`Error::Solve`] if Newton fails, with
-    /// the residual norm and iteration count, or if the solution's integration does not
-    /// resolve the leg ([`SolveError::UnderResolved`]: a tip frame off a rotation).
+    /// [`Error::Input`] for bad control values or a non-finite value in `init` (named
+    /// `init.u0[i]`, `init.v0[i]`, `init.gammas[k]`); [`Error::Solve`] if Newton fails,
+    /// with the residual norm and iteration count, or if the solution's integration does
+    /// not resolve the leg ([`SolveError::UnderResolved`]: a tip frame off a rotation).
     pub fn solve(
         &mut self,
         control: &TendonControl,

@@ -10,7 +10,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
-use std::io::{Seek, SeekFrom, Write};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -183,9 +183,12 @@ impl ResultsLog {
                     .collect(),
             });
         }
-        // Locked before it is read: another search on this directory keeps it.
+        // Locked before it is read: another search on this directory keeps it. Read
+        // through the locked handle (where locks are mandatory, others cannot read it).
         let mut file = open_locked(&path)?;
-        let content = std::fs::read_to_string(&path).unwrap_or_default();
+        let mut content = String::new();
+        file.read_to_string(&mut content)
+            .map_err(|source| OptimError::io(&path, source))?;
         let mut records = BTreeMap::new();
         let mut good_len = 0;
         let lines: Vec<&str> = content.split_inclusive('\n').collect();
@@ -261,6 +264,7 @@ fn check_dir(dir: &Path) -> Result<(), OptimError> {
 fn open_locked(path: &Path) -> Result<File, OptimError> {
     let file = OpenOptions::new()
         .create(true)
+        .read(true)
         .write(true)
         .truncate(false)
         .open(path)

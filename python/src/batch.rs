@@ -6,9 +6,9 @@
 //! Convention for a row whose solve failed: `converged[k]` is False, `errors[k]` says
 //! why and `reasons[k]` names why in snake_case (as `ConvergenceError.reason`; also
 //! `"invalid_input"` for a row the library refused), `iterations[k]` counts the Newton
-//! iterations done, and every other numeric
-//! output of the row (position, rotation, rotvec, q, tensions, residual_norm,
-//! solve_time_us) is 0, never NaN: read rows through the `converged` mask.
+//! iterations done, and every other numeric output of the row (position, rotation,
+//! rotvec, q, tensions, residual_norm, solve_time_us) is 0, never NaN: read rows
+//! through the `converged` mask.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -285,9 +285,8 @@ impl Robot {
     /// on `threads` workers (all cores if None), without the GIL. A dict of stacked
     /// arrays: position (m, 3) [m], rotation (m, 3, 3), rotvec (m, 3) [rad], q (m, n)
     /// [m], tensions (m, 3, n_t) [N], iterations (m,), residual_norm (m,),
-    /// solve_time_us (m,) [µs], converged (m,) bool, errors {row: message} and reasons {row: snake_case
-    /// reason}; rows
-    /// that failed are 0 (read them through `converged`).
+    /// solve_time_us (m,) [µs], converged (m,) bool, errors {row: message} and reasons
+    /// {row: snake_case reason}; rows that failed are 0 (read them through `converged`).
     #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", threads=None))]
     #[allow(clippy::too_many_arguments)]
     fn fk_many<'py>(
@@ -347,7 +346,8 @@ impl Robot {
     /// `s = robot.fk(q[k], wrench, init=s.state if s converged else None)`. A dict:
     /// position (m, 3) [m], rotation (m, 3, 3), rotvec (m, 3) [rad], q (m, n) [m],
     /// iterations (m,), residual_norm (m,), solve_time_us (m,) [µs], converged (m,)
-    /// bool, errors {row: message}, reasons {row: snake_case reason}; failed rows are 0 (read them through `converged`).
+    /// bool, errors {row: message}, reasons {row: snake_case reason}; failed rows are 0
+    /// (read them through `converged`).
     #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact"))]
     fn trajectory_fk<'py>(
         &mut self,
