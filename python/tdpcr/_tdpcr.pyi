@@ -279,7 +279,9 @@ class Robot:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
         within ``z_range`` [m]), in parallel, GIL released. ``progress(rays_done,
         rays_total)`` is called at most about four times a second and at the end; an
-        exception it raises is raised after the sweep.
+        exception it raises is raised after the sweep. Ctrl-C stops the sweep within a
+        fraction of a second (``KeyboardInterrupt``), as it stops the batches of 16 rows
+        or more.
 
         Keys, one row per cell: ``cell`` (m, 3) int64, ``position`` (m, 3) [m],
         ``rotvec`` (m, 3) [rad], ``q`` (m, n) [m], ``tensions`` (m, 3 n_t) [N],
