@@ -19,7 +19,11 @@ STOP_WITHIN = 1.5
 
 
 def interrupted(call):
-    """Runs `call` with SIGINT sent to this process after DELAY; the seconds it took."""
+    """Runs `call` with SIGINT sent to this process after DELAY; the seconds it took.
+    Python's own SIGINT handler is installed for the call: a process started in the
+    background by a non-interactive shell (a CI script's `cmd &`) inherits SIGINT
+    ignored, and Python then leaves it ignored."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(DELAY, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.perf_counter()
     timer.start()
@@ -28,6 +32,7 @@ def interrupted(call):
             call()
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     return time.perf_counter() - start
 
 
