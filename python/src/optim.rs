@@ -18,9 +18,13 @@ use tdpcr_optim::search::{
 };
 use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_sets};
 
-/// An optimizer error as `ValueError` (bad input), `OSError` (I/O) or `RuntimeError`.
+/// An optimizer error as `ValueError` (bad input), `OSError` (I/O) or `RuntimeError`,
+/// its message in `DesignSearch`'s terms (the library's names the CLI's flags).
 fn optim_error(e: OptimError) -> PyErr {
-    let message = e.to_string();
+    let message = e
+        .to_string()
+        .replace("--resume", "resume=True")
+        .replace("--out", "out");
     match e {
         OptimError::Io { .. } => PyOSError::new_err(message),
         e if e.is_input_error() => PyValueError::new_err(message),

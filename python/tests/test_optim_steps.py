@@ -53,3 +53,16 @@ def test_a_candidate_outside_the_search_box_is_refused(tmp_path):
     candidate["x"][0] = 1.5
     with pytest.raises(ValueError, match=r"candidate x\[0\] = 1.5: expected a number in \[0, 1\]"):
         problem.evaluate(json.dumps(candidate))
+
+
+def test_errors_name_the_python_arguments_not_the_cli_flags(tmp_path):
+    out = str(tmp_path / "run")
+    search = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
+    problem = SearchProblem(search.problem)
+    search.tell([problem.evaluate(c) for c in search.ask()])
+    del search
+    with pytest.raises(ValueError, match="already holds evaluations") as e:
+        DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
+    assert "resume=True" in str(e.value) and "--" not in str(e.value)
+    with pytest.raises(ValueError, match="resume=True: no run to continue"):
+        DesignSearch(str(CONFIG), str(tmp_path / "none"), resume=True)
