@@ -18,8 +18,8 @@ use pyo3::prelude::*;
 const CHECK_PERIOD: Duration = Duration::from_millis(50);
 
 /// Batches and trajectories of fewer rows run on the calling thread, not interruptible
-/// (under a millisecond of solves at the designs' warm-step speeds; a thread's start is
-/// tens of microseconds).
+/// (a thread's start is tens of microseconds, a warm step 20–150 µs; fifteen cold 9-DoF
+/// FK solves can take up to about 0.7 s, the longest such call).
 pub const MIN_ROWS: usize = 16;
 
 /// `work(stop)` without the GIL, stopped by a signal: see the module documentation. With
