@@ -24,7 +24,7 @@ pub enum OptimError {
     },
     /// A new run would overwrite an existing one.
     #[error(
-        "{path} already holds evaluations: pass --resume to continue that run, or choose another --out"
+        "{path} already holds evaluations: pass --resume to continue that run (Python: resume=True), or choose another --out (out)"
     )]
     RunExists {
         /// The existing log.
@@ -32,23 +32,23 @@ pub enum OptimError {
     },
     /// Another search (in this or another process) is running in the same directory.
     #[error(
-        "{path} is in use by another search running in that directory: wait for it to end, or choose another --out"
+        "{path} is in use by another search (another process, or a DesignSearch not finished or closed): wait for it to end, or choose another --out (out)"
     )]
     RunInUse {
         /// The locked log.
         path: PathBuf,
     },
     /// The run directory is an empty path.
-    #[error("the output directory is an empty path: name a directory (--out)")]
+    #[error("the output directory is an empty path: name a directory (--out; Python: out)")]
     NoOutDir,
     /// `--resume` without a run to continue.
-    #[error("--resume: no run to continue ({path} is missing)")]
+    #[error("--resume (resume=True): no run to continue ({path} is missing)")]
     NoRun {
         /// The missing run identity file.
         path: PathBuf,
     },
     /// `--resume` with settings that differ from the stored run.
-    #[error("--resume: the settings differ from the run in {dir}:{differences}")]
+    #[error("--resume (resume=True): the settings differ from the run in {dir}:{differences}")]
     ResumeMismatch {
         /// The run directory.
         dir: PathBuf,
@@ -67,7 +67,7 @@ pub enum OptimError {
     },
     /// A logged candidate is not the one the replayed search asks for.
     #[error(
-        "--resume: logged candidate {id} has x = {logged:?} but the replayed search asks for x = {asked:?} (the log was written by another version or edited)"
+        "--resume (resume=True): logged candidate {id} has x = {logged:?} but the replayed search asks for x = {asked:?} (the log was written by another version or edited)"
     )]
     ReplayMismatch {
         /// Candidate id.
@@ -134,13 +134,13 @@ mod tests {
                 OptimError::RunExists {
                     path: "out/evaluations.jsonl".into(),
                 },
-                "out/evaluations.jsonl already holds evaluations: pass --resume to continue that run, or choose another --out",
+                "out/evaluations.jsonl already holds evaluations: pass --resume to continue that run (Python: resume=True), or choose another --out (out)",
             ),
             (
                 OptimError::NoRun {
                     path: "out/run.ron".into(),
                 },
-                "--resume: no run to continue (out/run.ron is missing)",
+                "--resume (resume=True): no run to continue (out/run.ron is missing)",
             ),
             (
                 OptimError::CorruptLog {
@@ -156,7 +156,7 @@ mod tests {
                     logged: vec![0.5],
                     asked: vec![0.25],
                 },
-                "--resume: logged candidate 4 has x = [0.5] but the replayed search asks for x = [0.25] (the log was written by another version or edited)",
+                "--resume (resume=True): logged candidate 4 has x = [0.5] but the replayed search asks for x = [0.25] (the log was written by another version or edited)",
             ),
         ];
         for (e, text) in cases {

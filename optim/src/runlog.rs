@@ -186,27 +186,31 @@ impl ResultsLog {
         // Locked before it is read: another search on this directory keeps it. Read
         // through the locked handle (where locks are mandatory, others cannot read it).
         let mut file = open_locked(&path)?;
-        let mut content = String::new();
-        file.read_to_string(&mut content)
+        // As bytes: a write torn inside a multi-byte character leaves a last line that is
+        // not UTF-8 (dropped below as any torn line; the whole file as text would not read).
+        let mut content = Vec::new();
+        file.read_to_end(&mut content)
             .map_err(|source| OptimError::io(&path, source))?;
         let mut records = BTreeMap::new();
         let mut good_len = 0;
-        let lines: Vec<&str> = content.split_inclusive('\n').collect();
+        let lines: Vec<&[u8]> = content.split_inclusive(|&b| b == b'\n').collect();
         for (i, line) in lines.iter().enumerate() {
             let last = i + 1 == lines.len();
-            match (
-                serde_json::from_str::<Record>(line.trim_end()),
-                line.ends_with('\n'),
-            ) {
+            let parsed = std::str::from_utf8(line)
+                .map_err(|e| e.to_string())
+                .and_then(|text| {
+                    serde_json::from_str::<Record>(text.trim_end()).map_err(|e| e.to_string())
+                });
+            match (parsed, line.ends_with(b"\n")) {
                 (Ok(r), true) => {
                     records.insert(r.id, r);
                     good_len += line.len();
                 }
-                (Err(e), _) if !last => {
+                (Err(message), _) if !last => {
                     return Err(OptimError::CorruptLog {
                         path,
                         line: i + 1,
-                        message: e.to_string(),
+                        message,
                     });
                 }
                 // The last line torn by an interrupted write: dropped, evaluated again.
@@ -260,7 +264,8 @@ fn check_dir(dir: &Path) -> Result<(), OptimError> {
 ///
 /// # Errors
 /// [`OptimError::RunInUse`] if another search (of this or another process) holds it;
-/// [`OptimError::Io`].
+/// [`OptimError::Io`]. Where the file system does not support locks, the log is used
+/// unlocked.
 fn open_locked(path: &Path) -> Result<File, OptimError> {
     let file = OpenOptions::new()
         .create(true)
@@ -274,6 +279,12 @@ fn open_locked(path: &Path) -> Result<File, OptimError> {
         Err(std::fs::TryLockError::WouldBlock) => Err(OptimError::RunInUse {
             path: path.to_path_buf(),
         }),
+        // A file system without locks (some network and FUSE mounts): unlocked, as before.
+        Err(std::fs::TryLockError::Error(source))
+            if source.kind() == std::io::ErrorKind::Unsupported =>
+        {
+            Ok(file)
+        }
         Err(std::fs::TryLockError::Error(source)) => Err(OptimError::io(path, source)),
     }
 }

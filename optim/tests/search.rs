@@ -292,3 +292,23 @@ fn a_directory_in_use_by_another_search_is_refused() {
         Ok(_) => panic!("an empty directory path was accepted"),
     }
 }
+
+/// A last line torn inside a multi-byte character (records carry solver messages such as
+/// "RᵀR − I") is dropped on resume like any torn line; the whole log as text did not read.
+#[test]
+fn a_last_line_torn_inside_a_multibyte_character_is_dropped_on_resume() {
+    use std::io::Write;
+    let dir = fresh_dir("torn-utf8");
+    run(&dir, 6, 3, false, &Synthetic::default()).unwrap();
+    let before = canonical(&dir);
+    let mut log = std::fs::OpenOptions::new()
+        .append(true)
+        .open(dir.join(LOG_FILE))
+        .unwrap();
+    let torn = "{\"id\": 99, \"note\": \"RᵀR −".as_bytes();
+    log.write_all(&torn[..torn.len() - 1]).unwrap();
+    drop(log);
+    let resumed = run(&dir, 6, 3, true, &Synthetic::default());
+    assert!(resumed.is_ok(), "{:?}", resumed.err());
+    assert_eq!(canonical(&dir), before);
+}

@@ -36,6 +36,22 @@ fn readonly<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArra
         "V" => Some("structured records"),
         _ => None,
     };
+    // An object array's elements may be strings (a pandas column of text, a list mixed
+    // with numbers): numpy would parse them.
+    let what = match what {
+        None if kind == "O" => {
+            let mut elements = plain
+                .call_method0("ravel")
+                .map_err(not_numbers)?
+                .try_iter()?;
+            elements
+                .try_fold(false, |found, x| {
+                    x.map(|x| found || x.is_instance_of::<pyo3::types::PyString>())
+                })?
+                .then_some("strings")
+        }
+        what => what,
+    };
     if let Some(what) = what {
         return Err(PyValueError::new_err(format!(
             "{name}: {what} (dtype {}): expected real numbers",

@@ -40,7 +40,7 @@ pub fn run<T: Send>(
     std::thread::scope(|scope| {
         let (tx, rx) = mpsc::sync_channel(1);
         let flag = &stop;
-        scope.spawn(move || {
+        let worker = scope.spawn(move || {
             // The receiver is gone only after a signal, when the result is not wanted.
             let _ = tx.send(work(flag));
         });
@@ -56,15 +56,21 @@ pub fn run<T: Send>(
                 Err(RecvTimeoutError::Timeout) => {
                     if let Err(e) = py.check_signals() {
                         stop.store(true, Ordering::Relaxed);
-                        // The work ends at its next check; its result is dropped.
-                        py.detach(move || drop(rx.recv()));
+                        // The work ends at its next check; its result (or its panic: the
+                        // user asked to stop) is dropped.
+                        py.detach(move || drop(worker.join()));
                         return Err(e);
                     }
                 }
                 Err(RecvTimeoutError::Disconnected) => {
-                    return Err(PyRuntimeError::new_err(
-                        "the call's worker thread ended without a result",
-                    ));
+                    // The work panicked: the panic goes on here, with its own message
+                    // (PyO3 raises it as `PanicException`, as it did on this thread).
+                    return match py.detach(move || worker.join()) {
+                        Err(panic) => std::panic::resume_unwind(panic),
+                        Ok(()) => Err(PyRuntimeError::new_err(
+                            "the call's worker thread ended without a result",
+                        )),
+                    };
                 }
             }
         }

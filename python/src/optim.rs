@@ -18,13 +18,9 @@ use tdpcr_optim::search::{
 };
 use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_sets};
 
-/// An optimizer error as `ValueError` (bad input), `OSError` (I/O) or `RuntimeError`,
-/// its message in `DesignSearch`'s terms (the library's names the CLI's flags).
+/// An optimizer error as `ValueError` (bad input), `OSError` (I/O) or `RuntimeError`.
 fn optim_error(e: OptimError) -> PyErr {
-    let message = e
-        .to_string()
-        .replace("--resume", "resume=True")
-        .replace("--out", "out");
+    let message = e.to_string();
     match e {
         OptimError::Io { .. } => PyOSError::new_err(message),
         e if e.is_input_error() => PyValueError::new_err(message),
@@ -58,7 +54,7 @@ impl DesignSearch {
     fn search(&mut self) -> PyResult<&mut Search<'static>> {
         self.search
             .as_mut()
-            .ok_or_else(|| PyRuntimeError::new_err("the search is finished"))
+            .ok_or_else(|| PyRuntimeError::new_err("the search is finished (or closed)"))
     }
 }
 
@@ -120,6 +116,23 @@ impl DesignSearch {
         self.search()?
             .tell_evaluations(evaluations)
             .map_err(optim_error)
+    }
+
+    /// Releases the run directory without writing outputs: the log stays (a later
+    /// `DesignSearch(..., resume=True)` continues it) and this object's search ends (its
+    /// methods then raise). Also on leaving a `with` block.
+    fn close(&mut self) {
+        self.search = None;
+    }
+
+    fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close();
+        false
     }
 
     /// Why the search ended (None while it runs).
@@ -223,9 +236,9 @@ impl SearchProblem {
                 candidate.x.len()
             )));
         }
-        // The search's box is [0, 1] in every coordinate (a point outside it was
-        // evaluated as a design beyond the config's bounds); the reference (id 0) is the
-        // base design whatever its x.
+        // The search's box is [0, 1] in every coordinate: a point outside it is no
+        // candidate of `DesignSearch.ask` (it was evaluated as the point clamped into the
+        // box, silently); the reference (id 0) is the base design whatever its x.
         let outside = candidate
             .x
             .iter()

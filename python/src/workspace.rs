@@ -4,6 +4,7 @@
 //! called with the GIL at most about four times a second.
 
 use std::sync::Mutex;
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use numpy::IntoPyArray;
@@ -26,7 +27,7 @@ use crate::interrupt;
 const PROGRESS_PERIOD: Duration = Duration::from_millis(250);
 
 /// Calls a Python callable `progress(rays_done, rays_total)` from the sweep's threads,
-/// throttled; the first exception it raises is kept (the sweep goes on) and raised after.
+/// throttled; the first exception it raises stops the sweep and is raised after it.
 struct ProgressCallback {
     callable: Py<PyAny>,
     last: Mutex<Option<Instant>>,
@@ -69,9 +70,13 @@ pub fn sweep<'py>(
         error: Mutex::new(None),
     });
     let map = interrupt::run(py, true, |stop| {
+        // A callback that raised stops the sweep (its exception is raised below).
         let report = |p: Progress| {
             if let Some(c) = &callback {
                 c.report(p);
+                if c.error.lock().is_ok_and(|e| e.is_some()) {
+                    stop.store(true, Ordering::Relaxed);
+                }
             }
         };
         sweep_workspace_until(design, settings, &report, stop)

@@ -279,7 +279,7 @@ class Robot:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
         within ``z_range`` [m]), in parallel, GIL released. ``progress(rays_done,
         rays_total)`` is called at most about four times a second and at the end; an
-        exception it raises is raised after the sweep. Ctrl-C stops the sweep within a
+        exception it raises stops the sweep and is raised. Ctrl-C stops the sweep within a
         fraction of a second (``KeyboardInterrupt``), as it stops the batches of 16 rows
         or more.
 
@@ -362,6 +362,11 @@ class DesignSearch:
         """Logs the results (JSON, any order) in candidate order and tells CMA-ES."""
     def finish(self, command: str, workers: int) -> dict[str, Any]:
         """Writes the outputs of the ended search; returns a summary."""
+    def close(self) -> None:
+        """Releases the run directory (its log stays, to resume); the search ends here.
+        Also on leaving a ``with`` block."""
+    def __enter__(self) -> "DesignSearch": ...
+    def __exit__(self, *args: object) -> bool: ...
 
 class SearchProblem:
     """The evaluation of a search's candidates, built from ``DesignSearch.problem``."""

@@ -37,6 +37,8 @@ def test_outputs_are_writable_float64_copies(robot):
     [
         (np.array(Q6) + 1e-3j, "complex numbers"),
         ([str(x) for x in Q6], "strings"),
+        (np.array([str(x) for x in Q6], dtype=object), "strings"),
+        ([0.004, "0.02", -0.003, -0.01, 0.002, 0.03], "strings"),
         (np.array(Q6).astype("datetime64[s]"), "dates"),
     ],
 )

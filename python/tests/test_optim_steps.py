@@ -55,7 +55,7 @@ def test_a_candidate_outside_the_search_box_is_refused(tmp_path):
         problem.evaluate(json.dumps(candidate))
 
 
-def test_errors_name_the_python_arguments_not_the_cli_flags(tmp_path):
+def test_errors_name_the_python_arguments_too(tmp_path):
     out = str(tmp_path / "run")
     search = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
     problem = SearchProblem(search.problem)
@@ -63,6 +63,20 @@ def test_errors_name_the_python_arguments_not_the_cli_flags(tmp_path):
     del search
     with pytest.raises(ValueError, match="already holds evaluations") as e:
         DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
-    assert "resume=True" in str(e.value) and "--" not in str(e.value)
-    with pytest.raises(ValueError, match="resume=True: no run to continue"):
+    assert "resume=True" in str(e.value) and "(out)" in str(e.value)
+    with pytest.raises(ValueError, match=r"\(resume=True\): no run to continue"):
         DesignSearch(str(CONFIG), str(tmp_path / "none"), resume=True)
+
+
+def test_close_and_with_release_the_directory(tmp_path):
+    out = str(tmp_path / "run")
+    search = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
+    search.close()
+    with pytest.raises(RuntimeError, match="finished \\(or closed\\)"):
+        search.ask()
+    # Rebinding the name (the old object still alive while the new one opens) works
+    # once the old one is closed; a `with` block closes on leaving.
+    with DesignSearch(str(CONFIG), out, budget_evals=4, seed=9, resume=True) as s:
+        assert s.ask()
+    search = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9, resume=True)
+    assert search.ask()

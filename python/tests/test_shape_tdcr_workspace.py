@@ -1,5 +1,7 @@
 """Solution.shape, tdpcr.Tdcr and Robot.workspace."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -142,3 +144,15 @@ def test_an_empty_workspace_has_every_column(robot):
     assert set(ws["singularity"]) == {"type_i", "type_ii", "leg"}
     for key in ("min_tension", "stable", "min_compliance_eigenvalue", "leg_switch"):
         assert ws[key].shape == (0,), key
+
+
+def test_a_raising_progress_callback_stops_the_sweep(robot):
+    # The default Δ = 3 mm sweep takes about 20 s on 2 cores; a callback that raises at
+    # its first call (rays_done = 0) stops it within a fraction of a second.
+    def fails(done, total):
+        raise KeyError("stop here")
+
+    start = time.perf_counter()
+    with pytest.raises(KeyError, match="stop here"):
+        robot.workspace(progress=fails)
+    assert time.perf_counter() - start < 3.0
