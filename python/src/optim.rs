@@ -158,7 +158,7 @@ impl DesignSearch {
             let search = self
                 .search
                 .as_ref()
-                .ok_or_else(|| PyRuntimeError::new_err("the search is finished"))?;
+                .ok_or_else(|| PyRuntimeError::new_err("the search is closed"))?;
             // Checked before the search is taken: an early call leaves it usable.
             if search.termination().is_none() {
                 return Err(PyValueError::new_err(
