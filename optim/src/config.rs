@@ -411,7 +411,7 @@ mod tests {
             err.to_string(),
             "invalid bad.ron (15 problems):
   - base_design = \"\": expected a design file path
-  - parameters[0].min = -1: expected >= 0 N (pretension)
+  - parameters[0].min = -1: expected in [0, 1e6] N (a design's largest pretension) (pretension)
   - evaluation.orientations = []: expected at least one rotation vector
   - evaluation.step = 0: expected in [1e-5, 1] m
   - evaluation.angle_step = 4: expected in [1e-4, pi] rad

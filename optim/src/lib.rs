@@ -39,4 +39,4 @@ pub mod workspace_eval;
 
 pub use config::OptimConfig;
 pub use error::OptimError;
-pub use search::{Overrides, SearchResult, Setup, run_search};
+pub use search::{Overrides, SearchResult, Setup, run_search, run_search_holding_directory};

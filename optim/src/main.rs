@@ -12,7 +12,7 @@ use tdpcr_optim::objectives::Outcome;
 use tdpcr_optim::report::{ReportContext, load_average, write_outputs};
 use tdpcr_optim::runlog::{LOG_FILE, Record};
 use tdpcr_optim::search::{
-    EvaluationStatus, GenerationReport, Observer, Overrides, Setup, run_search,
+    EvaluationStatus, GenerationReport, Observer, Overrides, Setup, run_search_holding_directory,
 };
 use tdpcr_optim::workspace_eval::{WorkspaceEvaluator, slice_sets};
 
@@ -125,7 +125,9 @@ fn run(cli: &Cli) -> Result<(), OptimError> {
         setup.config.seed,
         cli.out.join(LOG_FILE).display()
     );
-    let result = run_search(&setup, &evaluator, &cli.out, cli.resume, &Progress)?;
+    // The directory stays locked until the outputs are written (`_directory`).
+    let (result, _directory) =
+        run_search_holding_directory(&setup, &evaluator, &cli.out, cli.resume, &Progress)?;
     eprintln!("search ended: {}", result.termination);
     let (slice_sets, slices_note) = slice_sets(&setup, &result, &|line| eprintln!("{line}"));
     let ctx = ReportContext {

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 use tdpcr::Tdpcr;
@@ -126,7 +126,22 @@ impl RunInfo {
 #[derive(Debug)]
 pub struct ResultsLog {
     path: PathBuf,
-    file: Mutex<File>,
+    /// Shared with the [`RunLock`]s handed out: the lock lasts while any of them lives.
+    file: Arc<Mutex<File>>,
+}
+
+/// The lock of a run directory's log, held while this (or a clone) lives: the search's
+/// result keeps it until its outputs are written, so that no other search (new or
+/// resumed) starts on the directory between the last record and the report.
+#[derive(Clone)]
+pub struct RunLock {
+    _file: Arc<Mutex<File>>,
+}
+
+impl std::fmt::Debug for RunLock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("RunLock")
+    }
 }
 
 impl ResultsLog {
@@ -150,7 +165,7 @@ impl ResultsLog {
         tdpcr::output::write_atomically(&dir.join(RUN_FILE), run_info_text(info).as_bytes())?;
         Ok(Self {
             path,
-            file: Mutex::new(file),
+            file: Arc::new(Mutex::new(file)),
         })
     }
 
@@ -224,7 +239,7 @@ impl ResultsLog {
         Ok((
             Self {
                 path,
-                file: Mutex::new(file),
+                file: Arc::new(Mutex::new(file)),
             },
             records,
         ))
@@ -246,6 +261,13 @@ impl ResultsLog {
     /// The log's path.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// A handle that keeps the log locked after this log is dropped.
+    pub fn run_lock(&self) -> RunLock {
+        RunLock {
+            _file: Arc::clone(&self.file),
+        }
     }
 }
 

@@ -36,7 +36,7 @@ use crate::evaluate::{Evaluator, evaluate_design, evaluate_point};
 use crate::objectives::Composite;
 use crate::objectives::Outcome;
 use crate::pareto::{dominates, pareto_front};
-use crate::runlog::{Record, ResultsLog, RunInfo};
+use crate::runlog::{Record, ResultsLog, RunInfo, RunLock};
 use crate::space::ParameterSpace;
 
 /// Stop when every coordinate's standard deviation is below this (box units): far below
@@ -740,6 +740,17 @@ impl<'a> Search<'a> {
     /// # Errors
     /// [`OptimError::UnexpectedRecord`] if the search has not ended.
     pub fn finish(self) -> Result<SearchResult, OptimError> {
+        self.finish_holding_directory().map(|(result, _)| result)
+    }
+
+    /// [`Search::finish`], the run directory's log kept locked while the returned
+    /// [`RunLock`] lives: for writing the outputs before another search (new or resumed)
+    /// may start on the directory (one started in between wrote beside them).
+    ///
+    /// # Errors
+    /// As [`Search::finish`].
+    pub fn finish_holding_directory(self) -> Result<(SearchResult, RunLock), OptimError> {
+        let lock = self.log.run_lock();
         let (Some(termination), Some((reference, composite))) = (self.termination, self.reference)
         else {
             return Err(unexpected(
@@ -747,7 +758,7 @@ impl<'a> Search<'a> {
                 "ask until it returns no candidate before finishing",
             ));
         };
-        Ok(SearchResult {
+        let result = SearchResult {
             reference,
             candidates: self.candidates,
             composite,
@@ -756,7 +767,8 @@ impl<'a> Search<'a> {
             from_log: self.from_log,
             generations: self.es.generation(),
             wall_time_s: self.start.elapsed().as_secs_f64(),
-        })
+        };
+        Ok((result, lock))
     }
 }
 
@@ -782,6 +794,21 @@ pub fn run_search(
     resume: bool,
     observer: &dyn Observer,
 ) -> Result<SearchResult, OptimError> {
+    run_search_holding_directory(setup, evaluator, dir, resume, observer).map(|(r, _)| r)
+}
+
+/// [`run_search`], the run directory kept locked while the returned [`RunLock`] lives
+/// (as [`Search::finish_holding_directory`]): `tdpcr-optim` writes its outputs under it.
+///
+/// # Errors
+/// As [`run_search`].
+pub fn run_search_holding_directory(
+    setup: &Setup,
+    evaluator: &dyn Evaluator,
+    dir: &Path,
+    resume: bool,
+    observer: &dyn Observer,
+) -> Result<(SearchResult, RunLock), OptimError> {
     let mut search = Search::open(setup.clone(), dir, resume, observer)?;
     loop {
         let todo = search.ask()?;
@@ -804,5 +831,5 @@ pub fn run_search(
             .collect::<Result<Vec<_>, _>>()?;
         search.tell(records)?;
     }
-    search.finish()
+    search.finish_holding_directory()
 }

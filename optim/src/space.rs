@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 use tdpcr::Tdpcr;
+use tdpcr::design::{MAX_LEG_LENGTH, MAX_PRETENSION};
 use tdpcr::error::{DesignError, Violations};
 
 /// A design parameter the search may vary (MODEL.md §1, §7).
@@ -17,22 +18,23 @@ pub enum DesignParameter {
     Alpha,
     /// β, rotation of each leg about world z away from the platform centre \[rad\].
     Beta,
-    /// L, leg (rod) length \[m\], > 0. Tendon end points and the backbone mass scale with
-    /// L (same mass per length; a tendon that ends at the tip still does); the disk count
-    /// and the integration steps stay those of the base design.
+    /// L, leg (rod) length \[m\], in (0, 10\]. Tendon end points and the backbone mass
+    /// scale with L (same mass per length; a tendon that ends at the tip still does); the
+    /// disk count and the integration steps stay those of the base design.
     LegLength,
-    /// D, tendon offset from the backbone \[m\], > 0, the same for every tendon; at most
-    /// the disk radius.
+    /// D, tendon offset from the backbone \[m\], in (0, 10\], the same for every tendon;
+    /// at most the disk radius.
     TendonOffset,
-    /// L_a, side of the equilateral coupling triangle \[m\], > 0.
+    /// L_a, side of the equilateral coupling triangle \[m\], in (0, 10\].
     PlatformSide,
-    /// L_c, rigid coupling link from rod tip to spherical joint \[m\], ≥ 0.
+    /// L_c, rigid coupling link from rod tip to spherical joint \[m\], in \[0, 10\].
     CouplingOffset,
-    /// τ_pre, pretension of every tendon in the unloaded straight home pose \[N\], ≥ 0.
+    /// τ_pre, pretension of every tendon in the unloaded straight home pose \[N\], in
+    /// \[0, 1e6\].
     Pretension,
     /// ψ, roll of each base frame about its leg tangent \[rad\].
     Psi,
-    /// Disk radius \[m\], > 0 (collision spheres; tendons run inside).
+    /// Disk radius \[m\], in (0, 10\] (collision spheres; tendons run inside).
     DiskRadius,
 }
 
@@ -132,7 +134,8 @@ impl DesignParameter {
         }
     }
 
-    /// Whether `value` is physically admissible, and the rule as text.
+    /// Whether `value` is admissible (physically, and within the design files' limits
+    /// `tdpcr::design::{MAX_LEG_LENGTH, MAX_PRETENSION}`), and the rule as text.
     pub fn admissible(self, value: f64) -> (bool, &'static str) {
         let finite = value.is_finite();
         match self {
@@ -141,11 +144,20 @@ impl DesignParameter {
                 "in (0, pi/2) rad",
             ),
             Self::Beta | Self::Psi => (finite, "a finite angle [rad]"),
-            Self::LegLength | Self::TendonOffset | Self::PlatformSide | Self::DiskRadius => {
-                (finite && value > 0.0, "> 0 m")
-            }
-            Self::CouplingOffset => (finite && value >= 0.0, ">= 0 m"),
-            Self::Pretension => (finite && value >= 0.0, ">= 0 N"),
+            // The design files' bounds (`tdpcr::design`): a search space beyond them made
+            // every candidate there infeasible ("invalid design") one by one.
+            Self::LegLength | Self::TendonOffset | Self::PlatformSide | Self::DiskRadius => (
+                finite && value > 0.0 && value <= MAX_LEG_LENGTH,
+                "in (0, 10] m (a design's lengths are at most 10 m)",
+            ),
+            Self::CouplingOffset => (
+                finite && (0.0..=MAX_LEG_LENGTH).contains(&value),
+                "in [0, 10] m (a design's lengths are at most 10 m)",
+            ),
+            Self::Pretension => (
+                finite && (0.0..=MAX_PRETENSION).contains(&value),
+                "in [0, 1e6] N (a design's largest pretension)",
+            ),
         }
     }
 }
@@ -284,6 +296,43 @@ mod tests {
             "/../designs/lilge2022.ron"
         ))
         .unwrap()
+    }
+
+    /// A bound beyond a design file's magnitude limits is refused as a bound (the design
+    /// refuses it too), one within them is admitted; the rules' text states the limits.
+    #[test]
+    fn bounds_beyond_the_design_files_limits_are_refused() {
+        assert_eq!(
+            (MAX_LEG_LENGTH, MAX_PRETENSION),
+            (10.0, 1e6),
+            "update the rules' text"
+        );
+        for p in DesignParameter::ALL {
+            let limit = match p {
+                DesignParameter::Pretension => MAX_PRETENSION,
+                DesignParameter::Alpha | DesignParameter::Beta | DesignParameter::Psi => continue,
+                _ => MAX_LEG_LENGTH,
+            };
+            assert!(p.admissible(limit).0, "{p} = {limit}");
+            let beyond = 1.5 * limit;
+            let (ok, rule) = p.admissible(beyond);
+            assert!(!ok, "{p} = {beyond} admitted");
+            let mut design = base();
+            p.apply(&mut design, beyond);
+            assert!(design.validate("test").is_err(), "{p} = {beyond}: {rule}");
+        }
+        let mut v = Violations::default();
+        let bounds = [Bounds {
+            parameter: DesignParameter::Pretension,
+            min: 0.0,
+            max: 2e7,
+        }];
+        ParameterSpace::check_bounds(&bounds, Some(&base()), "parameters", &mut v);
+        let text = v.to_string();
+        assert!(
+            text.contains("parameters[0].max = 20000000") && text.contains("1e6] N"),
+            "{text}"
+        );
     }
 
     #[test]

@@ -293,6 +293,30 @@ fn a_directory_in_use_by_another_search_is_refused() {
     }
 }
 
+/// A search that ends holding its directory (`tdpcr-optim` writes its outputs so) keeps
+/// other searches out until the lock is dropped (one started between the last record
+/// and the report wrote beside the outputs); the plain result holds nothing.
+#[test]
+fn the_directory_stays_locked_until_the_outputs_are_written() {
+    use tdpcr_optim::run_search_holding_directory;
+    use tdpcr_optim::search::Search;
+    let dir = fresh_dir("held");
+    let opens = || Search::open(setup(6, 1), &dir, true, &Silent).map(drop);
+    let (result, lock) =
+        run_search_holding_directory(&setup(6, 1), &Synthetic::default(), &dir, false, &Silent)
+            .unwrap();
+    match opens() {
+        Err(OptimError::RunInUse { .. }) => {}
+        other => panic!("expected RunInUse while the lock lives, got {other:?}"),
+    }
+    drop(lock);
+    opens().unwrap();
+    // The result alone (as `run_search` returns it) does not hold the directory.
+    let again = run(&dir, 6, 1, true, &Synthetic::default()).unwrap();
+    assert_eq!(again.candidates.len(), result.candidates.len());
+    opens().unwrap();
+}
+
 /// A last line torn inside a multi-byte character (records carry solver messages such as
 /// "RᵀR − I") is dropped on resume like any torn line; the whole log as text did not read.
 #[test]

@@ -12,7 +12,7 @@ use pyo3::types::PyDict;
 
 use tdpcr_optim::OptimError;
 use tdpcr_optim::report::{ReportContext, load_average, write_outputs};
-use tdpcr_optim::runlog::RunInfo;
+use tdpcr_optim::runlog::{RunInfo, RunLock};
 use tdpcr_optim::search::{
     Candidate, Evaluation, Overrides, Search, SearchResult, Setup, Silent, evaluate_candidate,
 };
@@ -46,6 +46,8 @@ pub struct DesignSearch {
     /// The ended search's result once `finish` has taken it (kept, so that a `finish`
     /// whose outputs could not be written can be called again).
     result: Option<(Setup, SearchResult)>,
+    /// The run directory's lock from the search's end until its outputs are written.
+    directory: Option<RunLock>,
     out: PathBuf,
     problem: String,
 }
@@ -78,6 +80,7 @@ impl DesignSearch {
         Ok(Self {
             search: Some(search),
             result: None,
+            directory: None,
             out,
             problem,
         })
@@ -118,11 +121,13 @@ impl DesignSearch {
             .map_err(optim_error)
     }
 
-    /// Releases the run directory without writing outputs: the log stays (a later
+    /// Releases the run directory without writing outputs (also after a `finish` that
+    /// could not write them): the log stays (a later
     /// `DesignSearch(..., resume=True)` continues it) and this object's search ends (its
     /// methods then raise). Also on leaving a `with` block.
     fn close(&mut self) {
         self.search = None;
+        self.directory = None;
     }
 
     fn __enter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
@@ -168,7 +173,9 @@ impl DesignSearch {
             }
             let search = self.search.take().expect("checked above");
             let setup = search.setup().clone();
-            self.result = Some((setup, search.finish().map_err(optim_error)?));
+            let (result, directory) = search.finish_holding_directory().map_err(optim_error)?;
+            self.result = Some((setup, result));
+            self.directory = Some(directory);
         }
         let (setup, result) = self.result.as_ref().expect("set above");
         let out = self.out.clone();
@@ -184,6 +191,8 @@ impl DesignSearch {
                 write_outputs(&out, setup, result, &slices, &ctx)
             })
             .map_err(optim_error)?;
+        // Written: other searches may open the directory.
+        self.directory = None;
         let summary = PyDict::new(py);
         summary.set_item("termination", result.termination.to_string())?;
         summary.set_item("candidates", result.candidates.len())?;

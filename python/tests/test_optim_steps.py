@@ -80,3 +80,24 @@ def test_close_and_with_release_the_directory(tmp_path):
         assert s.ask()
     search = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9, resume=True)
     assert search.ask()
+
+
+def test_the_directory_stays_locked_until_the_outputs_are_written(tmp_path):
+    out = tmp_path / "run"
+    search = DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9)
+    problem = SearchProblem(search.problem)
+    while candidates := search.ask():
+        search.tell([problem.evaluate(c) for c in candidates])
+    # An output that cannot be written (a directory where pareto.csv goes): finish
+    # raises, and the directory stays this search's until it writes or closes.
+    (out / "pareto.csv").mkdir()
+    with pytest.raises(OSError):
+        search.finish("test", 1)
+    with pytest.raises(ValueError, match="in use by another search"):
+        DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True)
+    (out / "pareto.csv").rmdir()
+    assert search.finish("test", 1)["candidates"] == 4
+    # Written: released (the object is still alive).
+    with DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True) as s:
+        assert s.ask() == []
+    search.close()
