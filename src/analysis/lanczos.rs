@@ -58,7 +58,11 @@
 //! before: two columns per pass cost 0.4 µs per Lanczos step at n = 30-36; four columns
 //! with the 4 × 4 diagonal blocks read as arrays took the analysis from 61.2 to 56.8 µs; inverting those blocks once per run
 //! gave nothing measurable (53.2 against 53.5 µs); forming R⁻¹ explicitly for σ_min cost
-//! more than the solves it replaces (62.8 → 73.5 µs).
+//! more than the solves it replaces (62.8 → 73.5 µs). Two σ_min runs of one order
+//! stepped together, their solves interleaved block by block (bitwise the same values),
+//! gained nothing (9-DoF analysis 54.4, 53.6 → 57.0, 52.3 µs; 555 k → 584 k
+//! instructions): at 3–4 instructions a cycle the runs are bound by their instruction
+//! count, not by the solves' chains (BENCHMARKS.md, 2026-11-28, twenty-sixth session).
 
 use super::qr::Triangle;
 use crate::rod::lanes::F64x4;
