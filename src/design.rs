@@ -208,20 +208,31 @@ pub const MAX_DESIGN_FILE_BYTES: u64 = 16 << 20;
 /// # Errors
 /// [`DesignError::Io`] if it cannot be read, is not UTF-8 or is longer.
 pub fn read_design_text(path: &Path) -> Result<String, DesignError> {
+    read_text_at_most(path, MAX_DESIGN_FILE_BYTES, "a design file").map_err(|source| {
+        DesignError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    })
+}
+
+/// The text of the file `path` if it has at most `max_bytes` bytes (a user's file given
+/// as `what`: reading `/dev/zero` whole took all the memory there was).
+///
+/// # Errors
+/// The read's error; [`std::io::ErrorKind::InvalidData`] if it is not UTF-8 or longer
+/// than `max_bytes` ("longer than N bytes: not WHAT").
+pub fn read_text_at_most(path: &Path, max_bytes: u64, what: &str) -> std::io::Result<String> {
     use std::io::Read;
-    let io = |source| DesignError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
     let mut text = String::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_DESIGN_FILE_BYTES + 1).read_to_string(&mut text))
-        .map_err(io)?;
-    if text.len() as u64 > MAX_DESIGN_FILE_BYTES {
-        return Err(io(std::io::Error::new(
+    std::fs::File::open(path)?
+        .take(max_bytes + 1)
+        .read_to_string(&mut text)?;
+    if text.len() as u64 > max_bytes {
+        return Err(std::io::Error::new(
             std::io::ErrorKind::InvalidData,
-            format!("longer than {MAX_DESIGN_FILE_BYTES} bytes: not a design file"),
-        )));
+            format!("longer than {max_bytes} bytes: not {what}"),
+        ));
     }
     Ok(text)
 }

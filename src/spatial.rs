@@ -22,6 +22,20 @@ impl Frame {
     }
 }
 
+/// Longest rotation vector accepted from users \[rad\]: 1000 rad is about 160 turns (a
+/// rotation vector of a turn or less names every rotation); beyond about 1e154 rad per
+/// component the vector's length overflows and the rotation became NaN.
+pub const MAX_ROTVEC_NORM: f64 = 1e3;
+
+/// The rule [`is_rotation_vector`] checks, for error messages.
+pub const ROTVEC_RULE: &str = "finite numbers of length <= 1000 rad (a rotation vector)";
+
+/// Whether `r` is a rotation vector to accept \[rad\]: finite, of length at most
+/// [`MAX_ROTVEC_NORM`].
+pub fn is_rotation_vector(r: &Vector3<f64>) -> bool {
+    r.iter().all(|x| x.is_finite()) && r.norm() <= MAX_ROTVEC_NORM
+}
+
 /// A wrench (force \[N\], moment \[N·m\]), world frame.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Wrench {

@@ -324,7 +324,7 @@ fn bad_settings_are_all_reported_with_field_value_and_rule() {
         "step = 0: expected in [1e-5, 1] m",
         "angle_step = 7: expected in [1e-4, pi] rad",
         "z_range = 0.1,-0.1: expected two finite numbers ZMIN <= ZMAX [m]",
-        "rotvec = [NaN, 0.0, 0.0]: expected finite numbers [rad]",
+        "rotvec = [NaN, 0.0, 0.0]: expected finite numbers of length <= 1000 rad",
         "chord_contraction = 1: expected in [0, 1)",
         "probe_iterations = 0: expected >= 1",
     ] {
@@ -738,4 +738,60 @@ fn a_sweep_stops_when_asked_and_is_unchanged_when_not() {
         comparable(&map),
         comparable(&sweep_workspace(&design, &settings).unwrap())
     );
+}
+
+/// A home configuration that solves but lies beyond the actuation limits is reported as
+/// invalid (both path ends `invalid_home`, the reason in `first_error`), as a colliding
+/// one is; the sweep stopped with "beyond the actuation limits" instead.
+#[test]
+fn a_home_beyond_the_actuation_limits_is_an_invalid_home() {
+    let mut design = reference();
+    // The home's tendon displacements are about 1 mm.
+    design.actuation_limits.tendon_displacement = 0.0005;
+    let map = sweep_workspace(&design, &coarse()).unwrap();
+    let ends = serde_json::to_string(&map.summary.path_ends).unwrap();
+    assert_eq!(ends, r#"["invalid_home","invalid_home"]"#);
+    let error = map.summary.first_error.as_deref().unwrap_or("");
+    assert!(error.contains("outside the actuation limits"), "{error}");
+    assert!(map.points.is_empty());
+}
+
+/// A rotation vector whose length overflows (or is beyond 1000 rad) and a z-range far
+/// beyond any design are refused by name (the rotation became NaN: "pose = a non-finite
+/// value"; the plane index saturated at i64::MAX).
+#[test]
+fn huge_rotation_vectors_and_z_ranges_are_refused() {
+    for (rotvec, z_range, part) in [
+        (
+            [1e200, 0.0, 0.0],
+            [-0.01, 0.01],
+            "rotvec = [1e200, 0.0, 0.0]: expected finite numbers of length <= 1000 rad",
+        ),
+        (
+            [0.0, 1001.0, 0.0],
+            [-0.01, 0.01],
+            "rotvec = [0.0, 1001.0, 0.0]",
+        ),
+        (
+            [0.0; 3],
+            [1e30, 1e30],
+            "z_range = 1e30,1e30: expected within ±100 m",
+        ),
+    ] {
+        let settings = WorkspaceSettings {
+            rotvec,
+            z_range,
+            ..coarse()
+        };
+        let msg = sweep_workspace(&reference(), &settings)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains(part), "missing '{part}' in: {msg}");
+    }
+    let ok = WorkspaceSettings {
+        rotvec: [0.0, 0.0, 999.0],
+        z_range: [-100.0, -99.99],
+        ..coarse()
+    };
+    assert!(ok.validate().is_ok());
 }

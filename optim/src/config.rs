@@ -27,6 +27,11 @@ use crate::space::{Bounds, ParameterSpace};
 /// Default initial CMA-ES step size σ₀ (fraction of each parameter's range).
 pub const DEFAULT_INITIAL_STEP: f64 = 0.25;
 
+/// Largest CMA-ES population λ accepted: far beyond the tens to hundreds a search over a
+/// few parameters uses (10 000 000 000 tried to allocate 40 GB before the first
+/// evaluation).
+pub const MAX_POPULATION: usize = 10_000;
+
 /// The whole search configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -186,7 +191,12 @@ impl OptimConfig {
     /// # Errors
     /// [`DesignError::Io`], [`DesignError::Parse`].
     pub fn parse_ron_file(path: &Path) -> Result<Self, DesignError> {
-        let text = std::fs::read_to_string(path).map_err(|source| DesignError::Io {
+        let text = tdpcr::design::read_text_at_most(
+            path,
+            tdpcr::design::MAX_DESIGN_FILE_BYTES,
+            "a search configuration",
+        )
+        .map_err(|source| DesignError::Io {
             path: path.to_path_buf(),
             source,
         })?;
@@ -280,9 +290,9 @@ impl OptimConfig {
             v.push("budget.wall_time_s", t, "> 0 s");
         }
         if let Some(p) = self.population
-            && p < 2
+            && !(2..=MAX_POPULATION).contains(&p)
         {
-            v.push("population", p, ">= 2");
+            v.push("population", p, &format!("in 2..={MAX_POPULATION}"));
         }
         if !(self.initial_step > 0.0 && self.initial_step <= 1.0) {
             v.push(
@@ -391,6 +401,33 @@ mod tests {
         assert_eq!(c.population_size(), c.population.unwrap_or(9));
     }
 
+    /// A rotation vector whose length overflows, a population that would not fit in
+    /// memory and a bound range that overflows are refused up front (they ran: every
+    /// evaluation failed, the run aborted on allocation, every value became infinite).
+    #[test]
+    fn overflowing_orientations_populations_and_ranges_are_refused() {
+        let text = r#"OptimConfig(
+            base_design: "../designs/lilge2022.ron",
+            parameters: [Bounds(parameter: Beta, min: -1e308, max: 1e308)],
+            evaluation: Evaluation(step: 0.03, angle_step: 0.8, z_range: (-0.1, 0.1),
+                                   orientations: [(0.0, 0.0, 0.0), (1e200, 0.0, 0.0)]),
+            objectives: [Weighted(objective: WorkspaceVolume, weight: 1.0)],
+            budget: Budget(evaluations: Some(6)),
+            seed: 1,
+            population: Some(10000000000),
+        )"#;
+        let err = OptimConfig::from_ron_str(text, Path::new("bad.ron"))
+            .unwrap_err()
+            .to_string();
+        for part in [
+            "parameters[0].max = 1e308: expected a finite range",
+            "evaluation.orientations[1] = [1e200, 0.0, 0.0]: expected finite numbers of length <= 1000 rad",
+            "population = 10000000000: expected in 2..=10000",
+        ] {
+            assert!(err.contains(part), "missing '{part}' in: {err}");
+        }
+    }
+
     #[test]
     fn every_bad_field_is_listed_with_value_and_rule() {
         let text = r#"OptimConfig(
@@ -423,7 +460,7 @@ mod tests {
   - objectives[1].objective = WorkspaceVolume: expected each objective at most once
   - objectives = weights [-1.0, 0.0]: expected at least one weight > 0
   - budget = no limit: expected evaluations: Some(N) and/or wall_time_s: Some(SECONDS)
-  - population = 1: expected >= 2
+  - population = 1: expected in 2..=10000
   - initial_step = 0: expected in (0, 1] (fraction of each range)"
         );
     }

@@ -268,6 +268,14 @@ impl ParameterSpace {
             }
             if b.min.partial_cmp(&b.max) != Some(std::cmp::Ordering::Less) {
                 v.push(f("max"), b.max, &format!("> min = {}", b.min));
+            } else if !(b.max - b.min).is_finite() {
+                // Angles take any finite value: a range of ±1e308 overflowed, and every
+                // candidate's value became infinite.
+                v.push(
+                    f("max"),
+                    b.max,
+                    &format!("a finite range max − min (min = {})", b.min),
+                );
             }
             if let Some(base) = base {
                 let disk_varies = bounds
@@ -322,15 +330,24 @@ mod tests {
             assert!(design.validate("test").is_err(), "{p} = {beyond}: {rule}");
         }
         let mut v = Violations::default();
-        let bounds = [Bounds {
-            parameter: DesignParameter::Pretension,
-            min: 0.0,
-            max: 2e7,
-        }];
+        let bounds = [
+            Bounds {
+                parameter: DesignParameter::Pretension,
+                min: 0.0,
+                max: 2e7,
+            },
+            Bounds {
+                parameter: DesignParameter::Beta,
+                min: -1e308,
+                max: 1e308,
+            },
+        ];
         ParameterSpace::check_bounds(&bounds, Some(&base()), "parameters", &mut v);
         let text = v.to_string();
         assert!(
-            text.contains("parameters[0].max = 20000000") && text.contains("1e6] N"),
+            text.contains("parameters[0].max = 20000000")
+                && text.contains("1e6] N")
+                && text.contains("parameters[1].max = 1e308: expected a finite range"),
             "{text}"
         );
     }

@@ -25,12 +25,28 @@ use tdpcr::model::Model;
 use tdpcr::trajectory::StepResult;
 use tdpcr::{Error, Pose};
 
-/// The pose of a row [x, y, z, rx, ry, rz] (position [m], rotation vector [rad]).
-pub fn pose_of_row(row: &[f64]) -> Pose {
-    Pose {
-        position: Vector3::new(row[0], row[1], row[2]),
-        rotation: *Rotation3::new(Vector3::new(row[3], row[4], row[5])).matrix(),
+/// The pose of a row [x, y, z, rx, ry, rz] (position [m], rotation vector [rad]; the
+/// values checked finite).
+///
+/// # Errors
+/// `ValueError` naming the rotation vector (`rotvec()`) if it is longer than
+/// [`tdpcr::spatial::MAX_ROTVEC_NORM`] (its length overflowed: the rotation became NaN).
+pub fn pose_of_row(row: &[f64], rotvec: impl Fn() -> String) -> PyResult<Pose> {
+    let r = Vector3::new(row[3], row[4], row[5]);
+    if !tdpcr::spatial::is_rotation_vector(&r) {
+        return Err(PyValueError::new_err(format!(
+            "{}: [{:?}, {:?}, {:?}]: expected {}",
+            rotvec(),
+            r.x,
+            r.y,
+            r.z,
+            tdpcr::spatial::ROTVEC_RULE
+        )));
     }
+    Ok(Pose {
+        position: Vector3::new(row[0], row[1], row[2]),
+        rotation: *Rotation3::new(r).matrix(),
+    })
 }
 
 /// `solve` of every item on `threads` workers (rayon's global pool if `None`), one

@@ -118,7 +118,10 @@ fn wrench_arg(wrench: Option<&Bound<'_, PyAny>>) -> PyResult<Wrench> {
 /// Poses (m, 6) [x, y, z [m], rx, ry, rz [rad]] as poses.
 fn poses_arg(poses: &Bound<'_, PyAny>) -> PyResult<Vec<Pose>> {
     let rows = crate::arrays::rows(poses, "poses", 6)?;
-    Ok(rows.iter().map(|r| pose_of_row(r)).collect())
+    rows.iter()
+        .enumerate()
+        .map(|(i, r)| pose_of_row(r, || format!("poses: row {i}'s rotation vector")))
+        .collect()
 }
 
 /// A warm start: a `State` or a `Solution` (its state).
@@ -242,7 +245,7 @@ impl Robot {
             Some(r) => row.extend(vector(r, "rotvec", Some(3))?),
             None => row.extend([0.0; 3]),
         }
-        let pose = pose_of_row(&row);
+        let pose = pose_of_row(&row, || "rotvec".to_string())?;
         let wrench = wrench_arg(wrench)?;
         let init = init_arg(init)?;
         let redundancy = self.redundancy(limits, reference)?;

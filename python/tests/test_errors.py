@@ -55,6 +55,10 @@ def test_a_diverged_solve_names_the_input_beyond_its_range(robot):
         (lambda r: r.fk(Q6, jacobian="magic"), "jacobian"),
         (lambda r: r.ik([0, 0]), "position"),
         (lambda r: r.ik([0, 0, -0.1], [0, np.nan, 0]), "rotvec"),
+        # Its length overflowed (the rotation became NaN) or is beyond 1000 rad.
+        (lambda r: r.ik([0, 0, -0.1], [1e200, 0, 0]), "rotvec"),
+        (lambda r: r.ik([0, 0, -0.1], [0, 0, 1001.0]), "rotvec"),
+        (lambda r: r.ik_many([[0, 0, -0.1, 0, 0, 0], [0, 0, -0.1, 1e300, 0, 0]]), "poses"),
         (lambda r: r.ik([0, 0, -0.1], limits="loose"), "limits"),
         (lambda r: r.ik([0, 0, -0.1], reference=np.zeros(6)), "reference"),
         (lambda r: r.fk_many(np.zeros((3, 5))), "q"),

@@ -53,11 +53,15 @@ pub(super) fn reach_planes(
     // land a cold run on another equilibrium: the ψ = 0 twin at R_ee = Rz(−30°) then
     // had no valid home).
     home_worker.solver.one_sided_kinks = false;
+    // Solved to the end even beyond the actuation limits: such a home is reported as
+    // invalid below (stopped there, the sweep failed with "beyond the actuation limits").
+    home_worker.solver.stop_beyond_limits = false;
     let home =
         home_worker
             .solver
             .solve_ik_with(&home_pose, &Wrench::default(), None, &home_settings)?;
     home_worker.solver.one_sided_kinks = settings.one_sided_kinks;
+    home_worker.solver.stop_beyond_limits = true;
     work.solves.fetch_add(1, Ordering::Relaxed);
     work.add(&home.report);
     let home = match home_worker.classify(model, home.state, work) {

@@ -21,6 +21,9 @@ pub const DEFAULT_ANGLE_STEP: f64 = 0.035;
 /// R_ee = I (−0.111 … 0.129 m at Δ = 3 mm) with a margin (see README).
 pub const DEFAULT_Z_RANGE: [f64; 2] = [-0.15, 0.15];
 
+/// Largest |z| of the z-range accepted \[m\] (10 × the longest leg a design takes).
+pub const MAX_Z: f64 = 100.0;
+
 /// What a colliding point does to its ray (and to the path to the planes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]
 #[serde(rename_all = "snake_case")]
@@ -138,11 +141,11 @@ impl WorkspaceSettings {
     /// [`Error::Input`] naming each bad field, its value and the rule.
     pub fn validate(&self) -> Result<(), Error> {
         let mut v = Violations::default();
-        if !self.rotvec.iter().all(|x| x.is_finite()) {
+        if !crate::spatial::is_rotation_vector(&Vector3::from(self.rotvec)) {
             v.push(
                 "rotvec",
                 format!("{:?}", self.rotvec),
-                "finite numbers [rad]",
+                crate::spatial::ROTVEC_RULE,
             );
         }
         if !(self.step.is_finite() && (1e-5..=1.0).contains(&self.step)) {
@@ -157,6 +160,13 @@ impl WorkspaceSettings {
                 "z_range",
                 format!("{lo},{hi}"),
                 "two finite numbers ZMIN <= ZMAX [m]",
+            );
+        } else if lo.abs().max(hi.abs()) > MAX_Z {
+            // The plane index k = z/Δ saturated (z = 1e30 m swept k = i64::MAX).
+            v.push(
+                "z_range",
+                format!("{lo:?},{hi:?}"),
+                "within ±100 m (beyond any design's reach: legs are at most 10 m)",
             );
         } else if self.step > 0.0 && (hi - lo) / self.step > MAX_COUNT {
             v.push(

@@ -410,19 +410,25 @@ fn parse_vec3(s: &str) -> Result<Vector3<f64>, String> {
     Ok(Vector3::new(v[0], v[1], v[2]))
 }
 
+/// `x,y,z` as a flag takes it (shortest round-trip digits: 1e200, not 201 digits).
+fn vec3_text(x: &Vector3<f64>) -> String {
+    format!("{:?},{:?},{:?}", x.x, x.y, x.z)
+}
+
 /// The pose of --position and --rotvec.
 pub fn pose_arg(
     position: Vector3<f64>,
     rotvec: Option<Vector3<f64>>,
 ) -> Result<tdpcr::model::Pose, Error> {
     let rotvec = rotvec.unwrap_or_default();
-    if !rotvec.iter().chain(position.iter()).all(|x| x.is_finite()) {
-        let mut v = tdpcr::error::Violations::default();
-        v.push(
-            "--position/--rotvec",
-            "a non-finite value",
-            "finite numbers",
-        );
+    let mut v = tdpcr::error::Violations::default();
+    if !position.iter().all(|x| x.is_finite()) {
+        v.push("--position", vec3_text(&position), "finite numbers [m]");
+    }
+    if !tdpcr::spatial::is_rotation_vector(&rotvec) {
+        v.push("--rotvec", vec3_text(&rotvec), tdpcr::spatial::ROTVEC_RULE);
+    }
+    if !v.0.is_empty() {
         return Err(Error::Input(v));
     }
     Ok(tdpcr::model::Pose {

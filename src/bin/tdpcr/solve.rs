@@ -116,9 +116,14 @@ pub fn prepare(
     Ok((solver, wrench, init))
 }
 
+/// The most bytes an `--init` file may have.
+const MAX_STATE_FILE_BYTES: u64 = 16 << 20;
+
 /// Reads a warm-start state: a JSON object with a `state` field, or the state itself.
 fn read_state(path: &Path) -> Result<RobotState, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("a readable JSON file ({e})"))?;
+    // A saved state is a few kB (a 9-DoF one about 2 kB).
+    let text = tdpcr::design::read_text_at_most(path, MAX_STATE_FILE_BYTES, "a saved state")
+        .map_err(|e| format!("a readable JSON file ({e})"))?;
     let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| format!("valid JSON ({e})"))?;
     let state = value.get("state").cloned().unwrap_or(value);

@@ -57,13 +57,13 @@ pub fn run(args: &TrajectoryArgs) -> Result<(), Error> {
     }
     let targets = match (&args.ik, &args.fk) {
         (Some(path), _) => {
-            let rows = read_csv(path, 6, "x,y,z,rx,ry,rz")?;
+            let rows = read_csv(path, 6, "x,y,z,rx,ry,rz", true)?;
             Targets::Poses(poses_from_rows(&rows))
         }
         (None, Some(path)) => {
             let n = solver.model().n_actuators();
             let what = format!("q1..q{n}");
-            Targets::Actuations(read_csv(path, n, &what)?)
+            Targets::Actuations(read_csv(path, n, &what, false)?)
         }
         (None, None) => unreachable!("clap requires --ik or --fk"),
     };
@@ -119,23 +119,28 @@ fn print_rows(TrajectoryOutput { steps, stats }: &TrajectoryOutput) {
     );
 }
 
+/// The most bytes a trajectory CSV may have (about 4 million rows of poses).
+const MAX_CSV_BYTES: u64 = 256 << 20;
+
 /// Reads a CSV of numbers with `width` columns (blank lines and lines starting with `#`
 /// are ignored; the first other line is a header, and skipped, if none of its fields is
 /// a number: a row of `NaN` or `inf` is data, and an error; a UTF-8 byte-order mark is
-/// dropped).
+/// dropped). With `poses`, columns 4–6 are a rotation vector
+/// ([`tdpcr::spatial::is_rotation_vector`]).
 ///
 /// # Errors
 /// [`Error::Input`] naming the file, line and column of every bad field.
-fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Error> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        let mut v = Violations::default();
-        v.push(
-            path.display().to_string(),
-            "unreadable",
-            &format!("a readable CSV file ({e})"),
-        );
-        Error::Input(v)
-    })?;
+fn read_csv(path: &Path, width: usize, what: &str, poses: bool) -> Result<Vec<Vec<f64>>, Error> {
+    let text =
+        tdpcr::design::read_text_at_most(path, MAX_CSV_BYTES, "a trajectory CSV").map_err(|e| {
+            let mut v = Violations::default();
+            v.push(
+                path.display().to_string(),
+                "unreadable",
+                &format!("a readable CSV file ({e})"),
+            );
+            Error::Input(v)
+        })?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let mut rows = Vec::new();
     let mut v = Violations::default();
@@ -168,6 +173,13 @@ fn read_csv(path: &Path, width: usize, what: &str) -> Result<Vec<Vec<f64>>, Erro
             if p.is_none() {
                 v.push(at(c), fields[c], "a finite number");
             }
+        }
+        // A pose row's rotation vector (columns 4-6).
+        if poses
+            && let [Some(a), Some(b), Some(c)] = parsed[3..6]
+            && !tdpcr::spatial::is_rotation_vector(&Vector3::new(a, b, c))
+        {
+            v.push(at(3), fields[3..6].join(","), tdpcr::spatial::ROTVEC_RULE);
         }
         rows.push(parsed.into_iter().map(|p| p.unwrap_or(0.0)).collect());
     }
@@ -209,11 +221,11 @@ mod tests {
             "x,y,z,rx,ry,rz\n0,0,0,0,0,0\n# comment\n\n0.001,0,0,0,0,0\n",
         )
         .unwrap();
-        let rows = read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap();
+        let rows = read_csv(&path, 6, "x,y,z,rx,ry,rz", true).unwrap();
         assert_eq!(rows.len(), 2);
         assert_eq!(rows[1][0], 0.001);
         std::fs::write(&path, "0,0,0,0,0,0\n0,abc,0,0,0,0\n0,0,0\n").unwrap();
-        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz")
+        let msg = read_csv(&path, 6, "x,y,z,rx,ry,rz", true)
             .unwrap_err()
             .to_string();
         assert!(
@@ -227,7 +239,7 @@ mod tests {
         // The error of `text` as the file.
         let error_of = |text: &str| {
             std::fs::write(&path, text).unwrap();
-            read_csv(&path, 6, "x,y,z,rx,ry,rz")
+            read_csv(&path, 6, "x,y,z,rx,ry,rz", true)
                 .unwrap_err()
                 .to_string()
         };
@@ -251,7 +263,7 @@ mod tests {
         );
         // A byte-order mark before the first row.
         std::fs::write(&path, "\u{feff}0,0,0,0,0,0\n").unwrap();
-        assert_eq!(read_csv(&path, 6, "x,y,z,rx,ry,rz").unwrap().len(), 1);
+        assert_eq!(read_csv(&path, 6, "x,y,z,rx,ry,rz", true).unwrap().len(), 1);
         std::fs::remove_dir_all(&dir).ok();
     }
 }
