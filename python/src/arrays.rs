@@ -3,7 +3,9 @@
 //! and a `ValueError` names the argument.
 
 use numpy::ndarray::{Array2, ArrayViewD};
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArrayDyn};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
 
@@ -12,6 +14,29 @@ use pyo3::prelude::*;
 /// warning), strings (numpy parsed them) and dates are refused. An exception that is
 /// not a conversion's (KeyboardInterrupt during a long conversion) passes unchanged.
 fn readonly<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    let a = converted(obj, name)?;
+    if in_place(&a) {
+        return Ok(a);
+    }
+    // A copy in C order, aligned: read in place, such an array gave other numbers.
+    let numpy = obj.py().import("numpy")?;
+    numpy
+        .call_method1("ascontiguousarray", (a.as_any(),))?
+        .extract::<PyReadonlyArrayDyn<'py, f64>>()
+}
+
+/// Whether a float64 array can be read where it is: its data aligned for f64 and its
+/// strides whole elements. A field of a packed structured array (a record of a float and
+/// a byte: strides of 9 bytes) is neither, and rust-numpy's view rounded its strides
+/// down to whole elements: `z_range` [-0.05, 0.05] was read as [-0.05, -2.7e-108].
+fn in_place(a: &PyReadonlyArrayDyn<'_, f64>) -> bool {
+    let size = std::mem::size_of::<f64>() as isize;
+    (a.data() as usize).is_multiple_of(std::mem::align_of::<f64>())
+        && a.strides().iter().all(|s| s % size == 0)
+}
+
+/// [`readonly`]'s conversion: `obj` as a float64 array, laid out as numpy has it.
+fn converted<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
         return Ok(a);
     }

@@ -75,20 +75,25 @@ where
     };
     match threads {
         None => Ok(run()),
+        // No more workers than items: each is a thread started (30 000 for one row
+        // loaded the machine for minutes).
         Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
+            .num_threads(n.min(items.len()).max(1))
             .build()
             .map(|pool| pool.install(run))
             .map_err(|e| e.to_string()),
     }
 }
 
-/// `threads` checked: None or at least 1.
+/// Most worker threads a call takes (as the CLI's `--threads`).
+const MAX_THREADS: usize = 1024;
+
+/// `threads` checked: None or 1 to [`MAX_THREADS`].
 pub fn threads_arg(threads: Option<usize>) -> PyResult<Option<usize>> {
     match threads {
-        Some(0) => Err(PyValueError::new_err(
-            "threads: 0: expected at least 1 (or None for all cores)",
-        )),
+        Some(n) if !(1..=MAX_THREADS).contains(&n) => Err(PyValueError::new_err(format!(
+            "threads: {n}: expected 1 to {MAX_THREADS} (or None for all cores)"
+        ))),
         t => Ok(t),
     }
 }

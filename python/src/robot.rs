@@ -277,6 +277,14 @@ impl Robot {
             type_ii_threshold: type_ii_threshold.unwrap_or(d.type_ii_threshold),
             leg_threshold: leg_threshold.unwrap_or(d.leg_threshold),
         };
+        // A solution of another design of the same size analysed here gave that design's
+        // state this robot's blocks: numbers of neither (a ψ = 0 twin's J_FK 2.1× off).
+        if !Arc::ptr_eq(&solution.model, &self.model) && *solution.model != *self.model {
+            return Err(PyValueError::new_err(
+                "solution: a solution of another design: expected one of this robot's \
+                 (analyse it with the Robot that solved it)",
+            ));
+        }
         let a = self
             .solver
             .analyze_solution(&solution.solution, &settings)

@@ -87,6 +87,22 @@ def run(search: DesignSearch, client, progress=None, task=evaluate) -> int:
         generation += 1
 
 
+def _bounded_int(low: int, high: int):
+    """An argparse type: an integer in [low, high] (argparse reports others, exit 2;
+    a negative --seed raised OverflowError in the search, a traceback)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r}: expected an integer") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value}: expected {low} to {high}")
+        return value
+
+    return parse
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m tdpcr.optim",
@@ -105,8 +121,13 @@ def _parser() -> argparse.ArgumentParser:
         help="without --scheduler: a LocalCluster of N single-threaded worker processes "
         "(default: the number of cores)",
     )
-    p.add_argument("--budget-evals", type=int, metavar="N", help="overrides budget.evaluations")
-    p.add_argument("--seed", type=int, metavar="S", help="overrides seed")
+    p.add_argument(
+        "--budget-evals",
+        type=_bounded_int(1, 2**64 - 1),
+        metavar="N",
+        help="overrides budget.evaluations",
+    )
+    p.add_argument("--seed", type=_bounded_int(0, 2**64 - 1), metavar="S", help="overrides seed")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     return p
 

@@ -18,6 +18,26 @@ def test_lists_int_and_float32_and_noncontiguous_inputs(robot):
     np.testing.assert_array_equal(zero.position, robot.fk(np.zeros(6)).position)
 
 
+def test_packed_record_fields_and_unaligned_buffers_read_their_values(robot):
+    # A float64 field of a packed record (a float and a byte: strides of 9 bytes) and a
+    # buffer at an odd offset: such views were read as other numbers.
+    rec = np.zeros(6, dtype=[("q", "f8"), ("flag", "i1")])
+    rec["q"] = Q6
+    assert rec["q"].strides == (9,)
+    raw = np.zeros(6 * 8 + 1, dtype=np.uint8)
+    odd = np.frombuffer(raw.data, dtype=np.float64, count=6, offset=1)
+    assert not odd.flags["ALIGNED"]
+    raw[1:] = np.array(Q6, dtype=np.float64).view(np.uint8)
+    ref = robot.fk(np.array(Q6))
+    for q in (rec["q"], odd):
+        np.testing.assert_array_equal(robot.fk(q).q, ref.q)
+        np.testing.assert_array_equal(robot.fk(q).position, ref.position)
+    rows = np.zeros((2, 6), dtype=[("q", "f8"), ("flag", "i1")])
+    rows["q"] = [Q6, Q6]
+    batch = robot.fk_many(rows["q"])
+    np.testing.assert_array_equal(batch["position"][1], ref.position)
+
+
 def test_noncontiguous_batch(robot):
     Q = np.asfortranarray(np.array([Q6, Q6]))
     batch = robot.fk_many(Q)

@@ -69,6 +69,11 @@ def test_batches_accept_threads_and_give_the_same_bits(robot):
         np.testing.assert_array_equal(one[key], two[key])
     with pytest.raises(ValueError, match="^threads:"):
         robot.fk_many(Q, threads=0)
+    # A typo's 30 000 threads loaded the machine for minutes (one row).
+    with pytest.raises(ValueError, match="^threads: 30000: expected 1 to 1024"):
+        robot.fk_many(Q[:1], threads=30000)
+    # More threads than rows: the rows' own.
+    np.testing.assert_array_equal(robot.fk_many(Q, threads=64)["q"], one["q"])
 
 
 def test_failed_steps_are_zero_masked_and_the_next_starts_cold(design):

@@ -77,8 +77,16 @@ def test_bad_settings_are_value_errors(robot):
 
 def test_analysis_of_another_designs_solution_is_a_value_error(robot, redundant_robot):
     other = redundant_robot.fk(np.zeros(9))
-    with pytest.raises(ValueError, match="state.q = 9 values: expected 6"):
+    with pytest.raises(ValueError, match="solution: a solution of another design"):
         robot.analyze(other)
+    # The same size (the ψ = 0 twin): analysed, it gave numbers of neither design.
+    twin = tdpcr.Robot(tdpcr.Design.load(str(DESIGNS / "lilge2022_psi0.ron")))
+    with pytest.raises(ValueError, match="solution: a solution of another design"):
+        robot.analyze(twin.fk(Q6))
+    # Another Robot of the same design is the same robot.
+    same = tdpcr.Robot(tdpcr.Design.load(str(DESIGNS / "lilge2022.ron")))
+    a, b = robot.analyze(same.fk(Q6)), robot.analyze(robot.fk(Q6))
+    np.testing.assert_array_equal(a["j_fk"], b["j_fk"])
     # An exactly singular analysis raises AnalysisError (not reachable from a converged
     # solution of the shipped designs); it is a RuntimeError like ConvergenceError.
     assert issubclass(tdpcr.AnalysisError, RuntimeError)

@@ -101,3 +101,19 @@ def test_the_directory_stays_locked_until_the_outputs_are_written(tmp_path):
     with DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True) as s:
         assert s.ask() == []
     search.close()
+
+
+@pytest.mark.parametrize(
+    "flag, value",
+    [("--seed", "-1"), ("--budget-evals", "-1"), ("--budget-evals", "0"), ("--seed", str(2**64))],
+)
+def test_the_command_line_refuses_out_of_range_counts_as_bad_input(tmp_path, capsys, flag, value):
+    from tdpcr.optim import main
+
+    # Exit 2 with a message, before any search (a negative seed raised OverflowError).
+    with pytest.raises(SystemExit) as e:
+        main([str(CONFIG), "--out", str(tmp_path / "run"), flag, value])
+    assert e.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {flag}: {value}: expected" in err, err
+    assert not (tmp_path / "run").exists()
