@@ -918,6 +918,34 @@ fn a_closed_stdout_ends_the_program_without_a_panic() {
     );
 }
 
+/// A standard output that cannot be written (a full disk: `> /dev/full`) ends the program
+/// with an error message and exit code 1; `println!` panicked (exit 101).
+#[cfg(target_os = "linux")]
+#[test]
+fn an_unwritable_stdout_is_an_error_not_a_panic() {
+    for args in [
+        vec!["validate", &design()],
+        vec!["fk", &design(), "--q", "0,0,0,0,0,0", "--format", "json"],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_tdpcr"))
+            .args(&args)
+            .stdout(full)
+            .output()
+            .expect("binary runs");
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(
+            err.contains("error: cannot write to standard output"),
+            "{err}"
+        );
+    }
+}
+
 /// A design file: the bundled paper design with `from` replaced by `to`.
 fn design_with(name: &str, from: &str, to: &str) -> std::path::PathBuf {
     let text = std::fs::read_to_string(design()).unwrap();

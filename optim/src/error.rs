@@ -41,6 +41,12 @@ pub enum OptimError {
     /// The run directory is an empty path.
     #[error("the output directory is an empty path: name a directory (--out; Python: out)")]
     NoOutDir,
+    /// The run directory's path names something that is not a directory (a file).
+    #[error("--out (out) = {path}: not a directory: name a directory (created if missing)")]
+    NotADirectory {
+        /// The path given.
+        path: PathBuf,
+    },
     /// `--resume` without a run to continue.
     #[error("--resume (resume=True): no run to continue ({path} is missing)")]
     NoRun {
@@ -78,7 +84,7 @@ pub enum OptimError {
         asked: Vec<f64>,
     },
     /// A driver of [`crate::search::Search`] told a result that does not fit the step.
-    #[error("result of candidate {id:?} told out of turn: expected {expected}")]
+    #[error("{} told out of turn: expected {expected}", told(*.id))]
     UnexpectedRecord {
         /// The candidate id told (`None`: no result at all).
         id: Option<usize>,
@@ -88,6 +94,14 @@ pub enum OptimError {
     /// The optimizer was misused (a bug).
     #[error(transparent)]
     Cmaes(#[from] CmaesError),
+}
+
+/// What [`OptimError::UnexpectedRecord`] was told, in words.
+fn told(id: Option<usize>) -> String {
+    match id {
+        Some(id) => format!("the result of candidate {id}"),
+        None => "no result".to_string(),
+    }
 }
 
 impl From<tdpcr::output::WriteError> for OptimError {
@@ -116,9 +130,11 @@ impl OptimError {
                 | Self::RunExists { .. }
                 | Self::RunInUse { .. }
                 | Self::NoOutDir
+                | Self::NotADirectory { .. }
                 | Self::NoRun { .. }
                 | Self::ResumeMismatch { .. }
                 | Self::ReplayMismatch { .. }
+                | Self::CorruptLog { .. }
         )
     }
 }

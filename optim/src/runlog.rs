@@ -171,7 +171,8 @@ impl ResultsLog {
 
     /// Reopens the run in `dir` for `--resume`: checks that `info` matches the stored
     /// `run.ron`, reads every record, drops a torn last line (an interrupted write), and
-    /// rewrites `run.ron` (the budget may have changed).
+    /// rewrites `run.ron` (the budget may have grown; an evaluation budget below the
+    /// log's records is a [`OptimError::ResumeMismatch`]).
     ///
     /// # Errors
     /// [`OptimError::NoRun`], [`OptimError::ResumeMismatch`], [`OptimError::CorruptLog`]
@@ -232,6 +233,23 @@ impl ResultsLog {
                 _ => break,
             }
         }
+        // A smaller budget ended the replay early and rewrote the outputs from fewer
+        // candidates than the log holds (the best ones lost from the report). The budget
+        // counts the candidates after the reference (id 0).
+        let candidates = records.range(1..).count();
+        if let Some(budget) = info.config.budget.evaluations
+            && budget < candidates
+        {
+            return Err(OptimError::ResumeMismatch {
+                dir: dir.to_path_buf(),
+                differences: format!(
+                    "\n  - budget.evaluations: the log holds {n} candidates, now {budget}: a \
+                     resumed run goes on from its log (pass --budget-evals {n} or more, or \
+                     choose another --out (out))",
+                    n = candidates
+                ),
+            });
+        }
         file.set_len(good_len as u64)
             .and_then(|()| file.seek(SeekFrom::End(0)))
             .map_err(|source| OptimError::io(&path, source))?;
@@ -271,11 +289,17 @@ impl ResultsLog {
     }
 }
 
-/// A run directory that names something: an empty path put the log in the working
-/// directory.
+/// A run directory that names something that can be a directory: an empty path put the
+/// log in the working directory.
 fn check_dir(dir: &Path) -> Result<(), OptimError> {
     if dir.as_os_str().is_empty() {
         return Err(OptimError::NoOutDir);
+    }
+    // A file there failed later as an I/O error ("File exists", exit 1).
+    if dir.exists() && !dir.is_dir() {
+        return Err(OptimError::NotADirectory {
+            path: dir.to_path_buf(),
+        });
     }
     Ok(())
 }

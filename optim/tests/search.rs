@@ -187,6 +187,18 @@ fn the_run_directory_guards_against_mixing_runs() {
     );
     // A larger budget is a continuation, not a difference.
     run(&dir, 12, 1, true, &e).unwrap();
+    // A smaller one than the log holds is refused (the outputs were rewritten from the
+    // first candidates only), and changes nothing.
+    let log = std::fs::read(dir.join(LOG_FILE)).unwrap();
+    let err = run(&dir, 5, 1, true, &e).unwrap_err();
+    assert!(err.is_input_error());
+    assert!(
+        err.to_string()
+            .contains("budget.evaluations: the log holds 12 candidates, now 5"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(dir.join(LOG_FILE)).unwrap(), log);
+    run(&dir, 12, 1, true, &e).unwrap();
 }
 
 #[test]
@@ -290,6 +302,18 @@ fn a_directory_in_use_by_another_search_is_refused() {
         Err(OptimError::NoOutDir) => {}
         Err(e) => panic!("expected NoOutDir, got {e}"),
         Ok(_) => panic!("an empty directory path was accepted"),
+    }
+    // A file where the directory goes is bad input (it failed as an I/O error, exit 1).
+    let file = fresh_dir("a-file").with_extension("txt");
+    std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+    std::fs::write(&file, "not a directory").unwrap();
+    match Search::open(setup(6, 1), &file, false, &Silent) {
+        Err(e @ OptimError::NotADirectory { .. }) => {
+            assert!(e.is_input_error());
+            assert!(e.to_string().contains("not a directory"), "{e}");
+        }
+        Err(e) => panic!("expected NotADirectory, got {e}"),
+        Ok(_) => panic!("a file was taken for the run directory"),
     }
 }
 

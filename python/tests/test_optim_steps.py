@@ -30,6 +30,14 @@ def test_a_generation_told_in_pieces_stays_open(tmp_path):
     assert summary["candidates"] == 4
 
 
+def test_results_told_out_of_turn_are_named_in_words(tmp_path):
+    search = DesignSearch(str(CONFIG), str(tmp_path / "run"), budget_evals=4, seed=9)
+    search.ask()
+    # Rust's Option leaked into the message ("candidate None").
+    with pytest.raises(ValueError, match="^no result told out of turn: expected the reference"):
+        search.tell([])
+
+
 def test_a_directory_in_use_and_an_empty_path_are_refused(tmp_path):
     out = str(tmp_path / "run")
     first = DesignSearch(str(CONFIG), out, budget_evals=4, seed=9)
@@ -41,6 +49,9 @@ def test_a_directory_in_use_and_an_empty_path_are_refused(tmp_path):
     del first
     with pytest.raises(ValueError, match="empty path"):
         DesignSearch(str(CONFIG), "", budget_evals=4, seed=9)
+    (tmp_path / "a-file").write_text("x")
+    with pytest.raises(ValueError, match="not a directory"):
+        DesignSearch(str(CONFIG), str(tmp_path / "a-file"), budget_evals=4, seed=9)
 
 
 def test_a_candidate_outside_the_search_box_is_refused(tmp_path):
