@@ -555,6 +555,18 @@ impl Tdpcr {
         ] {
             check_finite(&mut v, name, x);
         }
+        // The joints on the platform's circle span a triangle: at one point (1, 1, 1) the
+        // platform turned freely about it, and every solve ran to its iteration limit.
+        let area = 0.5 * ((a1 - a0).sin() + (a2 - a1).sin() + (a0 - a2).sin()).abs();
+        let equilateral = 0.75 * 3f64.sqrt();
+        if [a0, a1, a2].iter().all(|x| x.is_finite()) && area < 0.01 * equilateral {
+            v.push(
+                "coupling_angles",
+                format!("({a0}, {a1}, {a2})"),
+                "three joints spanning a triangle of at least 1 % of the equilateral one's \
+                 area (coincident joints leave the platform free to turn)",
+            );
+        }
         check_non_negative(&mut v, "pretension", self.pretension, "N");
         check_at_most(
             &mut v,

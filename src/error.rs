@@ -327,20 +327,21 @@ fn diverged_message(inputs: &[OutOfRange], stage: &str) -> String {
 pub struct OutOfRange {
     /// The input, e.g. `q[0]` or `tensions[1]`.
     pub input: String,
-    /// Its magnitude, in `unit`.
+    /// Its value (signed for a single number, a length for a vector), in `unit`; finite
+    /// (a vector's length past f64's range is f64::MAX).
     pub value: f64,
     /// Unit of `value` and `scale`.
     pub unit: &'static str,
     /// The natural scale of the input in the design, in `unit`.
     pub scale: f64,
-    /// How many times its scale the input is (`value / scale`).
+    /// How many times its scale the input is (|`value`| / `scale`).
     pub factor: f64,
     /// What the scale is, e.g. `the actuation limit actuation_limits.tendon_displacement`.
     pub meaning: String,
 }
 
 impl OutOfRange {
-    /// `input` of magnitude `value` against its `scale` (which `meaning` explains).
+    /// `input` of value `value` against its `scale` (which `meaning` explains).
     pub fn new(input: String, value: f64, unit: &'static str, scale: f64, meaning: &str) -> Self {
         Self {
             input,
@@ -348,7 +349,7 @@ impl OutOfRange {
             unit,
             scale,
             // Past f64's range (1e308 against 0.1): the largest finite factor.
-            factor: (value / scale).min(f64::MAX),
+            factor: (value.abs() / scale).min(f64::MAX),
             meaning: meaning.to_string(),
         }
     }

@@ -34,6 +34,17 @@ pub fn diverged_if_non_finite(
     }
 }
 
+/// |v|, at most f64::MAX: a wrench of 1e308 N had an infinite length (`inf N` in the
+/// message, `null` in JSON). Scaled by the largest component so that it does not
+/// overflow on the way.
+fn length(v: &nalgebra::Vector3<f64>) -> f64 {
+    let largest = v.amax();
+    if largest == 0.0 || !largest.is_finite() {
+        return largest.min(f64::MAX);
+    }
+    (largest * (v / largest).norm()).min(f64::MAX)
+}
+
 /// Tip force that bends a cantilever leg by about its own length, 3EI/L² \[N\].
 fn bending_force(leg: &LegModel) -> f64 {
     3.0 * leg.bending_stiffness() / (leg.length * leg.length)
@@ -56,21 +67,15 @@ pub fn parallel_robot_inputs(model: &Model, q: Option<&[f64]>, extra: &Wrench) -
             (model.limits.tendon_displacement, "tendon_displacement")
         };
         let meaning = format!("the actuation limit actuation_limits.{limit}");
-        out.push(OutOfRange::new(
-            format!("q[{i}]"),
-            x.abs(),
-            "m",
-            scale,
-            &meaning,
-        ));
+        out.push(OutOfRange::new(format!("q[{i}]"), x, "m", scale, &meaning));
     }
-    let weight = model.platform_weight.norm();
+    let weight = length(&model.platform_weight);
     let load = format!(
         "the platform load (weight {} N of platform.mass plus wrench force {} N)",
         short_number(weight),
-        short_number(extra.force.norm())
+        short_number(length(&extra.force))
     );
-    let force = (model.platform_weight + extra.force).norm();
+    let force = length(&(model.platform_weight + extra.force));
     let meaning = "the force that bends the three legs by about their length (3 x 3EI/L^2)";
     out.push(OutOfRange::new(
         load,
@@ -81,7 +86,7 @@ pub fn parallel_robot_inputs(model: &Model, q: Option<&[f64]>, extra: &Wrench) -
     ));
     let meaning = "the moment that bends the three legs by about one radian (3 x EI/L)";
     let scale = LEGS * bending_moment(&model.leg);
-    let moment = extra.moment.norm();
+    let moment = length(&extra.moment);
     out.push(OutOfRange::new(
         "the wrench moment".into(),
         moment,
@@ -114,14 +119,14 @@ pub fn tdcr_inputs(leg: &LegModel, control: &TendonControl, wrench: &Wrench) -> 
         };
         out.push(OutOfRange::new(
             format!("{name}[{k}]"),
-            x.abs(),
+            x,
             unit,
             scale,
             meaning,
         ));
     }
     let meaning = "the force that bends the rod by about its length (3EI/L^2)";
-    let force = wrench.force.norm();
+    let force = length(&wrench.force);
     out.push(OutOfRange::new(
         "the tip force".into(),
         force,
@@ -130,7 +135,7 @@ pub fn tdcr_inputs(leg: &LegModel, control: &TendonControl, wrench: &Wrench) -> 
         meaning,
     ));
     let meaning = "the moment that bends the rod by about one radian (EI/L)";
-    let moment = wrench.moment.norm();
+    let moment = length(&wrench.moment);
     out.push(OutOfRange::new(
         "the tip moment".into(),
         moment,

@@ -8,6 +8,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use crate::design::MAX_LEG_LENGTH;
 use crate::design::{MAX_TENDONS, Tdcr};
 use crate::error::{Error, MAX_FRAME_DRIFT, SolveError, Violations, frame_drift};
 use crate::input_range::{diverged_if_non_finite, tdcr_inputs};
@@ -81,7 +82,8 @@ impl TdcrSolver {
         &self.model
     }
 
-    /// Checks the control values: count, finiteness, non-negative tensions.
+    /// Checks the control values: count, finiteness, non-negative tensions, displacements
+    /// within ±[`MAX_LEG_LENGTH`].
     fn check_control(&self, control: &TendonControl, wrench: &TipWrench) -> Result<(), Error> {
         let mut v = Violations::default();
         let nt = self.model.n_tendons;
@@ -98,11 +100,17 @@ impl TdcrSolver {
                 &format!("{nt} values, one per tendon"),
             );
         }
+        let displacement = matches!(control, TendonControl::Displacement(_));
         for (k, &x) in values.iter().enumerate() {
-            let negative_tension = matches!(control, TendonControl::Tension(_)) && x < 0.0;
-            if !x.is_finite() || negative_tension {
+            let negative_tension = !displacement && x < 0.0;
+            // A displacement beyond any rod's length: a slack of 1e308 m "converged" and
+            // printed as `inf mm`.
+            let too_long = displacement && x.abs() > MAX_LEG_LENGTH;
+            if !x.is_finite() || negative_tension || too_long {
                 let rule = if negative_tension {
                     format!(">= 0 {unit}")
+                } else if too_long {
+                    format!("within ±{MAX_LEG_LENGTH} m (the longest rod a design takes)")
                 } else {
                     format!("finite [{unit}]")
                 };

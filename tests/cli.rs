@@ -994,6 +994,41 @@ fn a_diverged_solve_names_the_input_far_outside_the_design_range() {
     assert_diverged(&o, "weight 9810 N of platform.mass", "8646");
     let o = tdpcr(&["tdcr", &robot(), "--tensions", "1e6,0"]);
     assert_diverged(&o, "tensions[0] = 1e6 N", "273511");
+    // The input's own sign (it was dropped), and a wrench whose length overflows is
+    // f64::MAX, not inf (`null` in JSON).
+    let diverged_with = |o: &Output, part: &str| {
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(o));
+        let e = stderr(o);
+        assert!(
+            e.starts_with("error: the solve diverged: ") && e.contains(part),
+            "{e}"
+        );
+    };
+    let o = tdpcr(&["tdcr", &robot(), "--displacements=-5,0"]);
+    diverged_with(&o, "displacements[0] = -5 m is 1000 times");
+    // Beyond any rod's length: bad input (a slack of 1e308 m "converged", `inf mm`).
+    let o = tdpcr(&["tdcr", &robot(), "--displacements", "1e308,0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("displacements[0] = 1e308: expected within ±10 m"));
+    let o = tdpcr(&[
+        "fk",
+        &design(),
+        "--q",
+        "0,0,0,0,0,0",
+        "--wrench",
+        "1e308,1e308,0,0,0,0",
+        "--format",
+        "json",
+    ]);
+    diverged_with(
+        &o,
+        "wrench force 1.414e308 N) = 1.414e308 N is 1.246e308 times",
+    );
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        v["diverged_inputs"][0]["value"].as_f64(),
+        Some(2f64.sqrt() * 1e308)
+    );
     // A 1e9 m leg is bad input: rejected by the design's rule, exit 2.
     let long = design_with("long", "length: 0.145,", "length: 1e9,");
     let o = tdpcr(&["fk", long.to_str().unwrap(), "--q", "0,0,0,0,0,0"]);

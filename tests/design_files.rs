@@ -303,6 +303,18 @@ fn parallel_design_rules_are_enforced() {
             "Tendon(angle: 3.0, offset: 0.005",
             "leg.tendons[1].angle",
         ),
+        // Coincident joints: the platform turned freely about them (every solve ran to
+        // its iteration limit); nearly coincident ones likewise.
+        (
+            "coupling_angles: (1.5707963267948966, 3.6651914291880923, 5.759586531581287)",
+            "coupling_angles: (1.0, 1.0, 1.0)",
+            "coupling_angles",
+        ),
+        (
+            "coupling_angles: (1.5707963267948966, 3.6651914291880923, 5.759586531581287)",
+            "coupling_angles: (0.0, 0.1, 0.2)",
+            "coupling_angles",
+        ),
     ];
     for (from, to, field) in cases {
         assert!(TDPCR.contains(from), "fixture lacks {from}");

@@ -33,10 +33,25 @@ pub fn run<T: Send>(
     interruptible: bool,
     work: impl FnOnce(&AtomicBool) -> T + Send,
 ) -> PyResult<T> {
-    let stop = AtomicBool::new(false);
     if !interruptible {
-        return Ok(py.detach(|| work(&stop)));
+        return Ok(py.detach(|| work(&AtomicBool::new(false))));
     }
+    run_polling(py, work, |_| Ok(()))
+}
+
+/// [`run`] (interruptible), calling `poll` on this thread with the GIL at each check for
+/// signals (every [`CHECK_PERIOD`]) while the work runs: a progress callback runs there,
+/// one call at a time and never on the work's threads (called from rayon's workers, two
+/// ran at once, and one that used rayon itself waited for the workers it blocked).
+///
+/// # Errors
+/// As [`run`]; an error of `poll` stops the work the same way and is returned.
+pub fn run_polling<T: Send>(
+    py: Python<'_>,
+    work: impl FnOnce(&AtomicBool) -> T + Send,
+    mut poll: impl FnMut(Python<'_>) -> PyResult<()>,
+) -> PyResult<T> {
+    let stop = AtomicBool::new(false);
     std::thread::scope(|scope| {
         let (tx, rx) = mpsc::sync_channel(1);
         let flag = &stop;
@@ -54,7 +69,7 @@ pub fn run<T: Send>(
             match received {
                 Ok(value) => return Ok(value),
                 Err(RecvTimeoutError::Timeout) => {
-                    if let Err(e) = py.check_signals() {
+                    if let Err(e) = py.check_signals().and_then(|()| poll(py)) {
                         stop.store(true, Ordering::Relaxed);
                         // The work ends at its next check; its result (or its panic: the
                         // user asked to stop) is dropped.

@@ -224,7 +224,9 @@ impl Robot {
     }
 
     /// Inverse kinetostatics: the actuation that holds the platform at `position` [m] and
-    /// `rotvec` [rad] under its weight plus `wrench`.
+    /// `rotvec` [rad] under its weight plus `wrench`. `limits` and `reference` choose
+    /// among a redundant (9-DoF) design's solutions; a 6-DoF design has one q per pose
+    /// and ignores them (as the CLI's `ik`): its q may lie beyond the actuation limits.
     #[pyo3(signature = (position, rotvec=None, *, wrench=None, init=None, tolerance=None, max_iterations=None, jacobian="exact", limits="free", reference=None))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
@@ -301,7 +303,7 @@ impl Robot {
     #[pyo3(signature = (q, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", threads=None))]
     #[allow(clippy::too_many_arguments)]
     fn fk_many<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         wrench: Option<&Bound<'py, PyAny>>,
@@ -325,7 +327,7 @@ impl Robot {
     #[pyo3(signature = (poses, wrench=None, *, tolerance=None, max_iterations=None, jacobian="exact", limits="free", reference=None, threads=None))]
     #[allow(clippy::too_many_arguments)]
     fn ik_many<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         poses: &Bound<'py, PyAny>,
         wrench: Option<&Bound<'py, PyAny>>,
@@ -403,9 +405,9 @@ impl Robot {
     /// The workspace at the fixed orientation `rotvec` [rad]: the library's sweep (rays
     /// of IK steps of `step` [m] at angles `angle_step` [rad] in the planes z = k·step
     /// within `z_range` [m]; `collisions` "stop" | "continue"), in parallel without the
-    /// GIL. `progress(rays_done, rays_total)` is called with the GIL at most about four
-    /// times a second and once at the end (an exception it raises is raised after the
-    /// sweep). A dict of columns, one row per cell: cell (m, 3) int, position (m, 3)
+    /// GIL. `progress(rays_done, rays_total)` is called on the calling thread, one call at
+    /// a time, at most about four times a second and once at the end (an exception it
+    /// raises stops the sweep and is raised). A dict of columns, one row per cell: cell (m, 3) int, position (m, 3)
     /// [m], rotvec (m, 3) [rad], q (m, n) [m], tensions (m, 3 n_t) [N], reachable and
     /// collision (m,) bool, rcond and rcond_scaled ({name: (m,)}), singularity
     /// ({type_i, type_ii, leg: (m,) bool}), min_tension (m,) [N], stable (m,) bool,

@@ -1,10 +1,9 @@
 //! `Robot.workspace`: the library's workspace sweep
 //! ([`tdpcr::workspace::sweep_workspace_until`]) without the GIL, stopped by Ctrl-C
 //! (`interrupt.rs`), its cells as columns of arrays, and an optional progress callback
-//! called with the GIL at most about four times a second.
+//! called on the calling thread at most about four times a second.
 
 use std::sync::Mutex;
-use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use numpy::IntoPyArray;
@@ -26,34 +25,36 @@ use crate::interrupt;
 /// Shortest time between two progress calls.
 const PROGRESS_PERIOD: Duration = Duration::from_millis(250);
 
-/// Calls a Python callable `progress(rays_done, rays_total)` from the sweep's threads,
-/// throttled; the first exception it raises stops the sweep and is raised after it.
+/// A Python callable `progress(rays_done, rays_total)`, called on the calling thread (the
+/// sweep's threads only record how far they are), at most every [`PROGRESS_PERIOD`] and
+/// once at the end; an exception it raises stops the sweep and is raised.
 struct ProgressCallback {
     callable: Py<PyAny>,
-    last: Mutex<Option<Instant>>,
-    error: Mutex<Option<PyErr>>,
+    /// When the callable was last called, and with what.
+    called: Option<(Instant, Progress)>,
 }
 
 impl ProgressCallback {
-    fn report(&self, p: Progress) {
-        let last_call = p.rays_total > 0 && p.rays_done == p.rays_total;
-        {
-            let Ok(mut last) = self.last.lock() else {
-                return;
-            };
-            let due = last.is_none_or(|t| t.elapsed() >= PROGRESS_PERIOD);
-            if !(due || last_call) {
-                return;
-            }
-            *last = Some(Instant::now());
+    /// Calls the callable with the sweep's `latest` report if it is new and the period is
+    /// over (or `end` is set).
+    fn call_if_due(
+        &mut self,
+        py: Python<'_>,
+        latest: &Mutex<Option<Progress>>,
+        end: bool,
+    ) -> PyResult<()> {
+        let Some(p) = *latest.lock().unwrap_or_else(|e| e.into_inner()) else {
+            return Ok(());
+        };
+        let due = match self.called {
+            None => true,
+            Some((t, last)) => last != p && (end || t.elapsed() >= PROGRESS_PERIOD),
+        };
+        if due {
+            self.called = Some((Instant::now(), p));
+            self.callable.call1(py, (p.rays_done, p.rays_total))?;
         }
-        Python::attach(|py| {
-            if let Err(e) = self.callable.call1(py, (p.rays_done, p.rays_total))
-                && let Ok(mut error) = self.error.lock()
-            {
-                error.get_or_insert(e);
-            }
-        });
+        Ok(())
     }
 }
 
@@ -64,25 +65,23 @@ pub fn sweep<'py>(
     settings: &WorkspaceSettings,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let callback = progress.map(|callable| ProgressCallback {
+    let mut callback = progress.map(|callable| ProgressCallback {
         callable,
-        last: Mutex::new(None),
-        error: Mutex::new(None),
+        called: None,
     });
-    let map = interrupt::run(py, true, |stop| {
-        // A callback that raised stops the sweep (its exception is raised below).
-        let report = |p: Progress| {
-            if let Some(c) = &callback {
-                c.report(p);
-                if c.error.lock().is_ok_and(|e| e.is_some()) {
-                    stop.store(true, Ordering::Relaxed);
-                }
-            }
-        };
-        sweep_workspace_until(design, settings, &report, stop)
-    })?;
-    if let Some(e) = callback.and_then(|c| c.error.into_inner().ok().flatten()) {
-        return Err(e);
+    // The sweep's latest report, written by its threads.
+    let latest = Mutex::new(None);
+    let record = |p: Progress| *latest.lock().unwrap_or_else(|e| e.into_inner()) = Some(p);
+    let map = interrupt::run_polling(
+        py,
+        |stop| sweep_workspace_until(design, settings, &record, stop),
+        |py| match &mut callback {
+            Some(c) => c.call_if_due(py, &latest, false),
+            None => Ok(()),
+        },
+    )?;
+    if let Some(c) = &mut callback {
+        c.call_if_due(py, &latest, true)?;
     }
     let map = map.map_err(|e| to_py_err(py, e))?;
     columns(py, &map)

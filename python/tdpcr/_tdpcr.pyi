@@ -177,8 +177,9 @@ class Robot:
     ) -> Solution:
         """Inverse kinetostatics: q that holds the platform at ``position`` (3,) [m] and
         ``rotvec`` (3,) [rad]. For the 9-DoF design, ``limits="strict"`` keeps q within
-        the design's limits (``reference``: a q to stay close to). Raises
-        ConvergenceError, ValueError.
+        the design's limits (``reference``: a q to stay close to); a 6-DoF design has one
+        q per pose and ignores both (its q may lie beyond the limits: check
+        ``solution.q``). Raises ConvergenceError, ValueError.
         """
     def analyze(
         self,
@@ -278,8 +279,9 @@ class Robot:
         """The workspace at the fixed orientation ``rotvec`` [rad] (the library's sweep:
         rays of IK steps of ``step`` [m], ``angle_step`` [rad] apart, planes z = k·step
         within ``z_range`` [m]), in parallel, GIL released. ``progress(rays_done,
-        rays_total)`` is called at most about four times a second and at the end; an
-        exception it raises stops the sweep and is raised. Ctrl-C stops the sweep within a
+        rays_total)`` is called on the calling thread, one call at a time, at most about
+        four times a second and at the end; an exception it raises stops the sweep and is
+        raised. Ctrl-C stops the sweep within a
         fraction of a second (``KeyboardInterrupt``), as it stops the batches of 16 rows
         or more.
 

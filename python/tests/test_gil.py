@@ -65,3 +65,16 @@ def test_two_python_threads_run_batches_in_parallel(design):
     held = [a for a in attempts if a[0] >= 1.7 and a[2] <= 1.1]
     assert not held, f"two threads ran one at a time on two free cores; {report}"
     pytest.skip(f"machine loaded: no attempt had two cores for the threads; {report}")
+
+
+def test_one_robot_runs_batches_from_two_threads(robot):
+    # fk_many and ik_many only read the robot: a batch in one thread left another thread
+    # with "RuntimeError: Already mutably borrowed" even for `n_actuators`.
+    Q = np.tile(Q6, (64, 1))
+    results = {}
+    worker = threading.Thread(target=lambda: results.setdefault("thread", robot.fk_many(Q, threads=1)))
+    worker.start()
+    assert robot.n_actuators == 6
+    here = robot.fk_many(Q, threads=1)
+    worker.join()
+    np.testing.assert_array_equal(results["thread"]["q"], here["q"])

@@ -156,3 +156,34 @@ def test_a_raising_progress_callback_stops_the_sweep(robot):
     with pytest.raises(KeyError, match="stop here"):
         robot.workspace(progress=fails)
     assert time.perf_counter() - start < 3.0
+
+
+def test_a_progress_callback_runs_on_the_calling_thread_one_call_at_a_time(robot, design):
+    # Called from the sweep's rayon workers, two calls ran at once, and a slow callback
+    # that ran a batch itself (on rayon's pool) waited for the workers it blocked: the
+    # sweep hung for good, Ctrl-C included.
+    import threading
+
+    Q = np.tile(Q6, (16, 1))
+    seen = {"threads": set(), "active": 0, "overlap": False}
+
+    def slow(done, total):
+        seen["threads"].add(threading.get_ident())
+        seen["active"] += 1
+        seen["overlap"] |= seen["active"] > 1
+        time.sleep(0.3)
+        tdpcr.Robot(design).fk_many(Q)
+        seen["active"] -= 1
+
+    result = {}
+    worker = threading.Thread(
+        target=lambda: result.setdefault(
+            "ws", robot.workspace(step=0.006, angle_step=0.4, z_range=[-0.012, 0.0], progress=slow)
+        ),
+        daemon=True,
+    )
+    worker.start()
+    worker.join(timeout=120)
+    assert not worker.is_alive(), "the sweep hung"
+    assert result["ws"]["summary"]["counts"]["reachable"] > 0
+    assert seen["threads"] == {worker.ident} and not seen["overlap"]
