@@ -78,3 +78,22 @@ def test_one_robot_runs_batches_from_two_threads(robot):
     here = robot.fk_many(Q, threads=1)
     worker.join()
     np.testing.assert_array_equal(results["thread"]["q"], here["q"])
+
+
+def test_single_solves_release_the_gil(robot):
+    # A long single solve (an unreachable target, many iterations: about 1–2 s) let no
+    # other Python thread run while it held the GIL.
+    def long_ik():
+        with pytest.raises(tdpcr.ConvergenceError):
+            robot.ik([1.0, 1.0, 1.0], max_iterations=5000)
+
+    worker = threading.Thread(target=long_ik)
+    ticks = 0
+    worker.start()
+    start = time.perf_counter()
+    while worker.is_alive():
+        ticks += 1
+    elapsed = time.perf_counter() - start
+    worker.join()
+    # Held, this loop got a handful of turns in the whole call.
+    assert elapsed > 0.05 and ticks > 10_000, (elapsed, ticks)
