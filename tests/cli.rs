@@ -918,6 +918,36 @@ fn a_closed_stdout_ends_the_program_without_a_panic() {
     );
 }
 
+/// A sweep that fails before it writes anything (its home configuration diverges) leaves
+/// no empty `--out` directory behind; an existing one stays.
+#[test]
+fn a_failed_sweep_leaves_no_directory_it_made() {
+    let heavy = design_with("heavy-ws", "mass: 0.0344", "mass: 1000.0");
+    let out = std::env::temp_dir().join(format!("tdpcr-ws-failed-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let args = |out: &std::path::Path| {
+        let o = tdpcr(&[
+            "workspace",
+            heavy.to_str().unwrap(),
+            "--step",
+            "0.02",
+            "--angle-step",
+            "0.8",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        assert!(stderr(&o).contains("diverged"), "{}", stderr(&o));
+    };
+    args(&out);
+    assert!(!out.exists(), "an empty directory was left behind");
+    std::fs::create_dir_all(&out).unwrap();
+    args(&out);
+    assert!(out.is_dir(), "the user's directory was removed");
+    std::fs::remove_dir_all(&out).ok();
+    std::fs::remove_file(heavy).ok();
+}
+
 /// A standard output that cannot be written (a full disk: `> /dev/full`) ends the program
 /// with an error message and exit code 1; `println!` panicked (exit 101).
 #[cfg(target_os = "linux")]

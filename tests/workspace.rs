@@ -795,3 +795,26 @@ fn huge_rotation_vectors_and_z_ranges_are_refused() {
     };
     assert!(ok.validate().is_ok());
 }
+
+/// The slice figures of an earlier sweep at another Δ (other planes, other names) are
+/// removed when a sweep writes into the same directory (they stayed beside the new ones);
+/// files that only look alike are left alone.
+#[test]
+fn a_sweep_replaces_an_earlier_sweeps_slice_figures() {
+    let dir = std::env::temp_dir().join(format!("tdpcr-stale-figures-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let stale = dir.join("reach_z+0.066.svg");
+    let alike = dir.join("my_reach_z+0.066.svg");
+    std::fs::write(&stale, "<svg/>").unwrap();
+    std::fs::write(&alike, "mine").unwrap();
+    let map = sweep_workspace(&reference(), &coarse()).unwrap();
+    let written = files::write_outputs(&map, &dir).unwrap();
+    assert!(
+        written.iter().any(|p| p.ends_with("reach_z+0.000.svg")),
+        "{written:?}"
+    );
+    assert!(!stale.exists(), "the earlier sweep's figure stayed");
+    assert_eq!(std::fs::read_to_string(&alike).unwrap(), "mine");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -197,12 +197,69 @@ pub fn write_outputs(map: &WorkspaceMap, dir: &Path) -> Result<Vec<PathBuf>, Err
     write_atomically(&summary, (json + "\n").as_bytes())?;
     written.push(summary);
     #[cfg(feature = "plots")]
-    for (name, svg) in crate::workspace::figures::slice_figures(map) {
-        let path = dir.join(name);
-        write_atomically(&path, svg.as_bytes())?;
-        written.push(path);
+    {
+        let figures = crate::workspace::figures::slice_figures(map);
+        let names: Vec<&str> = figures.iter().map(|(name, _)| name.as_str()).collect();
+        remove_other_slice_figures(dir, &names)?;
+        for (name, svg) in &figures {
+            let path = dir.join(name);
+            write_atomically(&path, svg.as_bytes())?;
+            written.push(path);
+        }
     }
     Ok(written)
+}
+
+/// Removes the slice figures of an earlier sweep in `dir` that are not among `keep` (a
+/// sweep at another Δ draws other planes: `reach_z+0.060.svg` stayed beside this sweep's
+/// `reach_z+0.066.svg`). Only names of the figures' own pattern
+/// (`{reach,rcond,tension}_z±D.DDD.svg`) are touched.
+///
+/// # Errors
+/// [`Error::Output`] naming a figure that could not be removed.
+#[cfg(feature = "plots")]
+fn remove_other_slice_figures(dir: &Path, keep: &[&str]) -> Result<(), Error> {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Ok(());
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(name) = name.to_str() else { continue };
+        if is_slice_figure_name(name) && !keep.contains(&name) && entry.path().is_file() {
+            fs::remove_file(entry.path()).map_err(|source| Error::Output {
+                path: entry.path(),
+                source,
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Whether `name` is a slice figure's: `{reach,rcond,tension}_z`, a sign, digits, a
+/// point, three digits, `.svg`.
+#[cfg(feature = "plots")]
+fn is_slice_figure_name(name: &str) -> bool {
+    let Some(rest) = ["reach_z", "rcond_z", "tension_z"]
+        .iter()
+        .find_map(|p| name.strip_prefix(p))
+        .and_then(|r| r.strip_suffix(".svg"))
+    else {
+        return false;
+    };
+    let Some(number) = rest.strip_prefix('+').or_else(|| rest.strip_prefix('-')) else {
+        return false;
+    };
+    match number.split_once('.') {
+        Some((whole, frac)) => {
+            !whole.is_empty()
+                && frac.len() == 3
+                && whole
+                    .bytes()
+                    .chain(frac.bytes())
+                    .all(|b| b.is_ascii_digit())
+        }
+        None => false,
+    }
 }
 
 #[cfg(test)]
@@ -219,6 +276,29 @@ mod tests {
             msg.starts_with("cannot write") && msg.contains("b.txt"),
             "{msg}"
         );
+    }
+
+    #[cfg(feature = "plots")]
+    #[test]
+    fn only_the_slice_figures_own_names_are_taken_for_figures() {
+        for name in [
+            "reach_z+0.060.svg",
+            "rcond_z-0.066.svg",
+            "tension_z+12.000.svg",
+        ] {
+            assert!(is_slice_figure_name(name), "{name}");
+        }
+        for name in [
+            "reach_z0.060.svg",
+            "reach_z+0.06.svg",
+            "my_reach_z+0.060.svg",
+            "reach_z+0.060.svg.bak",
+            "reach_z+.060.svg",
+            "points.csv",
+            "reach_z+0.06a.svg",
+        ] {
+            assert!(!is_slice_figure_name(name), "{name}");
+        }
     }
 
     #[test]

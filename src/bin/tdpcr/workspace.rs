@@ -68,6 +68,7 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
             );
             Error::Input(v)
         })?;
+    let new_dir = !args.out.exists();
     files::prepare_output_dir(&args.out, &["points.csv", "summary.json", "workspace.html"])?;
     let bar = if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(0);
@@ -87,7 +88,14 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
             bar.set_position(p.rays_done as u64);
         }
     };
-    let map = pool.install(|| sweep_workspace_with_progress(&design, &settings, &progress))?;
+    let map = pool
+        .install(|| sweep_workspace_with_progress(&design, &settings, &progress))
+        .inspect_err(|_| {
+            // Nothing was written: a directory made for this run goes (if still empty).
+            if new_dir {
+                let _ = std::fs::remove_dir(&args.out);
+            }
+        })?;
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
