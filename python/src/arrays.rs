@@ -2,7 +2,7 @@
 //! non-contiguous views): they are read as float64, their shape and finiteness checked,
 //! and a `ValueError` names the argument.
 
-use numpy::ndarray::{Array2, ArrayViewD};
+use numpy::ndarray::{Array2, ArrayViewD, Dimension};
 use numpy::{
     IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods,
 };
@@ -37,6 +37,16 @@ fn in_place(a: &PyReadonlyArrayDyn<'_, f64>) -> bool {
 
 /// [`readonly`]'s conversion: `obj` as a float64 array, laid out as numpy has it.
 fn converted<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+    // A masked array is an ndarray: read as one, its masked entries' values were used.
+    if obj.hasattr("mask")? {
+        let numpy_ma = obj.py().import("numpy.ma")?;
+        if numpy_ma.call_method1("is_masked", (obj,))?.is_truthy()? {
+            return Err(PyValueError::new_err(format!(
+                "{name}: a masked array with masked entries: expected plain numbers (fill or \
+                 compress it first)"
+            )));
+        }
+    }
     if let Ok(a) = obj.extract::<PyReadonlyArrayDyn<'py, f64>>() {
         return Ok(a);
     }
@@ -71,7 +81,11 @@ fn converted<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArr
                 .try_iter()?;
             elements
                 .try_fold(false, |found, x| {
-                    x.map(|x| found || x.is_instance_of::<pyo3::types::PyString>())
+                    x.map(|x| {
+                        found
+                            || x.is_instance_of::<pyo3::types::PyString>()
+                            || x.is_instance_of::<pyo3::types::PyBytes>()
+                    })
                 })?
                 .then_some("strings")
         }
@@ -91,14 +105,21 @@ fn converted<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArr
         .map_err(not_numbers)
 }
 
-/// Checks every element is finite.
+/// Checks every element is finite; the first that is not is named by its index (row and
+/// column in a matrix).
 fn check_finite(a: &ArrayViewD<'_, f64>, name: &str) -> PyResult<()> {
-    match a.iter().position(|x| !x.is_finite()) {
+    match a.indexed_iter().find(|(_, x)| !x.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(PyValueError::new_err(format!(
-            "{name}: element {i} is {}: expected finite numbers",
-            a.iter().nth(i).copied().unwrap_or(f64::NAN)
-        ))),
+        Some((at, x)) => {
+            let at = match at.slice() {
+                [i] => format!("element {i}"),
+                [r, c] => format!("row {r}, column {c}"),
+                more => format!("element {more:?}"),
+            };
+            Err(PyValueError::new_err(format!(
+                "{name}: {at} is {x}: expected finite numbers"
+            )))
+        }
     }
 }
 

@@ -38,6 +38,23 @@ def test_packed_record_fields_and_unaligned_buffers_read_their_values(robot):
     np.testing.assert_array_equal(batch["position"][1], ref.position)
 
 
+def test_masked_arrays_bytes_and_bad_rows_are_named(robot):
+    # A masked array's masked values were used; bytes in an object array were parsed as
+    # numbers where strings are refused; a batch's bad entry had a flat index.
+    masked = np.ma.masked_array(Q6, mask=[0, 1, 0, 0, 0, 0])
+    with pytest.raises(ValueError, match="^q: a masked array with masked entries"):
+        robot.fk(masked)
+    np.testing.assert_array_equal(
+        robot.fk(np.ma.masked_array(Q6)).q, robot.fk(np.array(Q6)).q
+    )
+    with pytest.raises(ValueError, match="^q: strings"):
+        robot.fk(np.array([b"0.004"] + Q6[1:], dtype=object))
+    rows = np.tile(Q6, (3, 1))
+    rows[2, 4] = np.nan
+    with pytest.raises(ValueError, match=r"^q: row 2, column 4 is NaN"):
+        robot.fk_many(rows)
+
+
 def test_noncontiguous_batch(robot):
     Q = np.asfortranarray(np.array([Q6, Q6]))
     batch = robot.fk_many(Q)
