@@ -4,7 +4,8 @@
 
 use numpy::ndarray::{Array2, ArrayViewD, Dimension};
 use numpy::{
-    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods,
+    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArray,
+    PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
@@ -38,7 +39,9 @@ fn in_place(a: &PyReadonlyArrayDyn<'_, f64>) -> bool {
 /// [`readonly`]'s conversion: `obj` as a float64 array, laid out as numpy has it.
 fn converted<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
     // A masked array is an ndarray: read as one, its masked entries' values were used.
-    if obj.hasattr("mask")? {
+    // (A plain ndarray skips the attribute lookup: its miss raises and catches an
+    // AttributeError, about 0.3 µs of a 17 µs warm IK step.)
+    if !obj.is_exact_instance_of::<PyUntypedArray>() && obj.hasattr("mask")? {
         let numpy_ma = obj.py().import("numpy.ma")?;
         if numpy_ma.call_method1("is_masked", (obj,))?.is_truthy()? {
             return Err(PyValueError::new_err(format!(
