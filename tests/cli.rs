@@ -939,9 +939,21 @@ fn a_failed_sweep_leaves_no_directory_it_made() {
         assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
         assert!(stderr(&o).contains("diverged"), "{}", stderr(&o));
     };
-    args(&out);
+    // Its parents too, and only what it made: `new/../kept` does not resolve before
+    // `new` exists (judged missing by its path, `kept` was removed).
+    let nested = out.join("a").join("b");
+    args(&nested);
     assert!(!out.exists(), "an empty directory was left behind");
-    std::fs::create_dir_all(&out).unwrap();
+    std::fs::create_dir_all(out.join("kept")).unwrap();
+    args(&out.join("new").join("..").join("kept"));
+    assert!(
+        out.join("kept").is_dir(),
+        "the user's directory was removed"
+    );
+    assert!(
+        !out.join("new").exists(),
+        "a directory it made was left behind"
+    );
     args(&out);
     assert!(out.is_dir(), "the user's directory was removed");
     std::fs::remove_dir_all(&out).ok();

@@ -127,6 +127,9 @@ impl DesignSearch {
     /// methods then raise). Also on leaving a `with` block.
     fn close(&mut self) {
         self.search = None;
+        // The ended search's result too: a `finish` after `close` wrote the outputs into
+        // a directory another search may hold by then.
+        self.result = None;
         self.directory = None;
     }
 
@@ -159,6 +162,12 @@ impl DesignSearch {
         workers: usize,
     ) -> PyResult<Bound<'py, PyDict>> {
         let load_start = load_average();
+        if self.result.is_some() && self.directory.is_none() {
+            // Written once: the directory is released, another search may hold it now.
+            return Err(PyRuntimeError::new_err(
+                "finish() has written the outputs already (and released the directory)",
+            ));
+        }
         if self.result.is_none() {
             let search = self
                 .search

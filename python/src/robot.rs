@@ -215,12 +215,10 @@ impl Robot {
         let wrench = wrench_arg(wrench)?;
         let init = init_arg(init)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        // Without the GIL: other Python threads run meanwhile (a cold solve can take
-        // tens of milliseconds; releasing it costs well under a microsecond).
-        let result = py.detach(|| {
-            self.with_call(o.jacobian, None, |s| {
-                s.solve_fk_with(&q, &wrench, init.as_ref(), &o.settings)
-            })
+        // With the GIL: the robot is borrowed mutably for the call, and without the GIL
+        // another thread's use of it failed ("Already borrowed") where it waited.
+        let result = self.with_call(o.jacobian, None, |s| {
+            s.solve_fk_with(&q, &wrench, init.as_ref(), &o.settings)
         });
         result
             .map(|s| self.solution(s))
@@ -256,10 +254,8 @@ impl Robot {
         let init = init_arg(init)?;
         let redundancy = self.redundancy(limits, reference)?;
         let o = self.options(tolerance, max_iterations, jacobian)?;
-        let result = py.detach(|| {
-            self.with_call(o.jacobian, Some(redundancy), |s| {
-                s.solve_ik_with(&pose, &wrench, init.as_ref(), &o.settings)
-            })
+        let result = self.with_call(o.jacobian, Some(redundancy), |s| {
+            s.solve_ik_with(&pose, &wrench, init.as_ref(), &o.settings)
         });
         result
             .map(|s| self.solution(s))
@@ -293,9 +289,9 @@ impl Robot {
                  (analyse it with the Robot that solved it)",
             ));
         }
-        let solved = &solution.solution;
-        let a = py
-            .detach(|| self.solver.analyze_solution(solved, &settings))
+        let a = self
+            .solver
+            .analyze_solution(&solution.solution, &settings)
             .map_err(|e| to_py_err(py, e))?;
         analysis_dict(py, &a, &settings)
     }

@@ -99,9 +99,7 @@ impl Tdcr {
         let mut v = Violations::default();
         self.solver.settings.check("settings", &mut v);
         let result = if v.0.is_empty() {
-            // Without the GIL, as the parallel robot's single solves.
-            let solver = &mut self.solver;
-            py.detach(|| solver.solve(&control, &wrench, init.as_ref()))
+            self.solver.solve(&control, &wrench, init.as_ref())
         } else {
             Err(Error::Input(v))
         };

@@ -70,8 +70,15 @@ pub fn sweep<'py>(
         called: None,
     });
     // The sweep's latest report, written by its threads.
-    let latest = Mutex::new(None);
-    let record = |p: Progress| *latest.lock().unwrap_or_else(|e| e.into_inner()) = Some(p);
+    let latest: Mutex<Option<Progress>> = Mutex::new(None);
+    // The furthest report: threads report in any order (one that counted N − 1 rays done
+    // may write after the one that counted N, and the end call reported N − 1 of N).
+    let record = |p: Progress| {
+        let mut latest = latest.lock().unwrap_or_else(|e| e.into_inner());
+        if latest.is_none_or(|l| p.rays_done >= l.rays_done) {
+            *latest = Some(p);
+        }
+    };
     let map = interrupt::run_polling(
         py,
         |stop| sweep_workspace_until(design, settings, &record, stop),

@@ -93,25 +93,44 @@ def test_close_and_with_release_the_directory(tmp_path):
     assert search.ask()
 
 
-def test_the_directory_stays_locked_until_the_outputs_are_written(tmp_path):
-    out = tmp_path / "run"
+def ended_search_whose_finish_failed(out):
+    """A search run to its end in `out` whose finish() raised OSError: an output that
+    cannot be written (a directory where pareto.csv goes, removed again afterwards)."""
     search = DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9)
     problem = SearchProblem(search.problem)
     while candidates := search.ask():
         search.tell([problem.evaluate(c) for c in candidates])
-    # An output that cannot be written (a directory where pareto.csv goes): finish
-    # raises, and the directory stays this search's until it writes or closes.
     (out / "pareto.csv").mkdir()
     with pytest.raises(OSError):
         search.finish("test", 1)
+    (out / "pareto.csv").rmdir()
+    return search
+
+
+def test_the_directory_stays_locked_until_the_outputs_are_written(tmp_path):
+    out = tmp_path / "run"
+    # The directory stays the search's until it writes its outputs or closes.
+    search = ended_search_whose_finish_failed(out)
     with pytest.raises(ValueError, match="in use by another search"):
         DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True)
-    (out / "pareto.csv").rmdir()
     assert search.finish("test", 1)["candidates"] == 4
-    # Written: released (the object is still alive).
+    # Written: released (the object is still alive), and not written again.
     with DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True) as s:
         assert s.ask() == []
+        with pytest.raises(RuntimeError, match="written the outputs already"):
+            search.finish("test", 1)
     search.close()
+
+
+def test_finish_after_close_writes_nothing(tmp_path):
+    out = tmp_path / "run"
+    search = ended_search_whose_finish_failed(out)
+    search.close()
+    # Another search holds the directory now: the closed one must not write into it.
+    with DesignSearch(str(CONFIG), str(out), budget_evals=4, seed=9, resume=True):
+        with pytest.raises(RuntimeError, match="closed"):
+            search.finish("test", 1)
+    assert not (out / "report.md").exists()
 
 
 @pytest.mark.parametrize(

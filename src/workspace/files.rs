@@ -145,6 +145,11 @@ fn write_csv_line(out: &mut String, p: &WorkspacePoint, digits: &mut zmij::Buffe
 /// # Errors
 /// [`Error::Output`] naming `dir`.
 pub fn create_output_dir(dir: &Path) -> Result<(), Error> {
+    create_output_dir_levels(dir).map(drop)
+}
+
+/// [`create_output_dir`], returning the directories it created (outermost first).
+fn create_output_dir_levels(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let error = |source| Error::Output {
         path: dir.to_path_buf(),
         source,
@@ -155,7 +160,37 @@ pub fn create_output_dir(dir: &Path) -> Result<(), Error> {
             "it exists and is not a directory: expected a directory or a new directory's path",
         )));
     }
-    fs::create_dir_all(dir).map_err(error)
+    create_missing_levels(dir).map_err(error)
+}
+
+/// Creates `dir` and its missing parents one level at a time, outermost first, and
+/// returns the directories this call created (outermost first): exactly those, so that
+/// they can be removed again ([`remove_created_dirs`]). Whether a level exists is decided
+/// by creating it, not by looking up the path first (`new/../kept` does not resolve
+/// before `new` exists: judged missing, `kept` was removed after a failed sweep).
+fn create_missing_levels(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut levels: Vec<&Path> = dir
+        .ancestors()
+        .filter(|p| !p.as_os_str().is_empty())
+        .collect();
+    levels.reverse();
+    let mut created = Vec::new();
+    for level in levels {
+        match fs::create_dir(level) {
+            Ok(()) => created.push(level.to_path_buf()),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(created)
+}
+
+/// Removes the directories of `created` (as [`prepare_output_dir_created`] returns them)
+/// that are still empty, deepest first; anything else stays.
+pub fn remove_created_dirs(created: &[PathBuf]) {
+    for dir in created.iter().rev() {
+        let _ = fs::remove_dir(dir);
+    }
 }
 
 /// Makes `dir` ready for a sweep's files before the sweep: creates it (and its parents)
@@ -166,7 +201,25 @@ pub fn create_output_dir(dir: &Path) -> Result<(), Error> {
 /// # Errors
 /// [`Error::Output`] naming the directory or the file.
 pub fn prepare_output_dir(dir: &Path, names: &[&str]) -> Result<(), Error> {
-    create_output_dir(dir)?;
+    prepare_output_dir_created(dir, names).map(drop)
+}
+
+/// [`prepare_output_dir`], returning the directories it created (outermost first) for
+/// [`remove_created_dirs`] after a run that failed before writing anything.
+///
+/// # Errors
+/// As [`prepare_output_dir`].
+pub fn prepare_output_dir_created(dir: &Path, names: &[&str]) -> Result<Vec<PathBuf>, Error> {
+    let created = create_output_dir_levels(dir)?;
+    let checked = check_output_dir(dir, names);
+    if checked.is_err() {
+        remove_created_dirs(&created);
+    }
+    checked.map(|()| created)
+}
+
+/// The checks of [`prepare_output_dir`] on an existing `dir`.
+fn check_output_dir(dir: &Path, names: &[&str]) -> Result<(), Error> {
     let probe = dir.join(format!(".tdpcr-probe.{}", std::process::id()));
     fs::File::create(&probe)
         .and_then(|_| fs::remove_file(&probe))

@@ -68,8 +68,10 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
             );
             Error::Input(v)
         })?;
-    let new_dir = !args.out.exists();
-    files::prepare_output_dir(&args.out, &["points.csv", "summary.json", "workspace.html"])?;
+    let created = files::prepare_output_dir_created(
+        &args.out,
+        &["points.csv", "summary.json", "workspace.html"],
+    )?;
     let bar = if std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(0);
         bar.set_style(
@@ -90,12 +92,8 @@ pub fn run(args: &WorkspaceArgs) -> Result<(), Error> {
     };
     let map = pool
         .install(|| sweep_workspace_with_progress(&design, &settings, &progress))
-        .inspect_err(|_| {
-            // Nothing was written: a directory made for this run goes (if still empty).
-            if new_dir {
-                let _ = std::fs::remove_dir(&args.out);
-            }
-        })?;
+        // Nothing was written: the directories made for this run go (if still empty).
+        .inspect_err(|_| files::remove_created_dirs(&created))?;
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
