@@ -47,3 +47,23 @@ pub struct Wrench {
 
 /// A platform pose: position \[m\] and rotation (platform to world).
 pub type Pose = Frame;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rule's text states the bound, and the bound holds at its edge.
+    #[test]
+    fn rotation_vectors_up_to_the_bound_are_accepted() {
+        assert!(ROTVEC_RULE.contains(&format!("<= {MAX_ROTVEC_NORM} rad")));
+        assert!(is_rotation_vector(&Vector3::new(0.0, 0.0, MAX_ROTVEC_NORM)));
+        assert!(!is_rotation_vector(&Vector3::new(
+            0.0,
+            0.0,
+            1.001 * MAX_ROTVEC_NORM
+        )));
+        // Finite components whose length overflows.
+        assert!(!is_rotation_vector(&Vector3::new(1e200, 0.0, 0.0)));
+        assert!(!is_rotation_vector(&Vector3::new(f64::NAN, 0.0, 0.0)));
+    }
+}
