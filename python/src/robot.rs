@@ -407,18 +407,18 @@ impl Robot {
     /// The workspace at the fixed orientation `rotvec` [rad]: the library's sweep (rays
     /// of IK steps of `step` [m] at angles `angle_step` [rad] in the planes z = k·step
     /// within `z_range` [m]; `collisions` "stop" | "continue"), in parallel without the
-    /// GIL. `progress(rays_done, rays_total)` is called on the calling thread, one call at
-    /// a time, at most about four times a second and once at the end (an exception it
-    /// raises stops the sweep and is raised). A dict of columns, one row per cell: cell (m, 3) int, position (m, 3)
-    /// [m], rotvec (m, 3) [rad], q (m, n) [m], tensions (m, 3 n_t) [N], reachable and
-    /// collision (m,) bool, rcond and rcond_scaled ({name: (m,)}), singularity
+    /// GIL. `progress(rays_done, rays_total)` is called on the calling thread, one call at a
+    /// time, at most about four times a second and once at the end (an exception it raises
+    /// stops the sweep and is raised). A dict of columns, one row per cell: cell (m, 3) int,
+    /// position (m, 3) [m], rotvec (m, 3) [rad], q (m, n) [m], tensions (m, 3 n_t) [N],
+    /// reachable and collision (m,) bool, rcond and rcond_scaled ({name: (m,)}), singularity
     /// ({type_i, type_ii, leg: (m,) bool}), min_tension (m,) [N], stable (m,) bool,
-    /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings
-    /// (dicts, as the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the
-    /// Jacobian's taut slopes only and, for the 9-DoF design, without retrying a failed
-    /// step across a tendon's kink one-sided (the CLI's `--two-sided-kinks`); `chord_contraction`
-    /// in [0, 1) (default 0.1) as the CLI's `--chord-contraction`; `probe_iterations` ≥ 1
-    /// (default 15) as the CLI's `--probe-iterations`.
+    /// min_compliance_eigenvalue (m,), leg_switch (m,) bool; summary and settings (dicts, as
+    /// the CLI's workspace JSON). `one_sided_kinks=False` sweeps with the Jacobian's taut
+    /// slopes only and, for the 9-DoF design, without retrying a failed step across a tendon's
+    /// kink one-sided (the CLI's `--two-sided-kinks`); `chord_contraction` in [0, 1) (default
+    /// 0.1) as the CLI's `--chord-contraction`; `probe_iterations` ≥ 1 (default 15) as the
+    /// CLI's `--probe-iterations`.
     #[pyo3(signature = (*, step=None, angle_step=None, z_range=None, rotvec=None, collisions="stop", tolerance=None, max_iterations=None, progress=None, one_sided_kinks=true, chord_contraction=None, probe_iterations=None))]
     #[allow(clippy::too_many_arguments)]
     fn workspace<'py>(
