@@ -91,7 +91,8 @@ impl TdcrSolver {
             TendonControl::Tension(t) => ("tensions", t, "N"),
             TendonControl::Displacement(d) => ("displacements", d, "m"),
         };
-        if matches!(control, TendonControl::Displacement(_)) && nt == 0 {
+        let displacement = matches!(control, TendonControl::Displacement(_));
+        if displacement && nt == 0 {
             v.push("displacements", "given", "a robot with at least one tendon");
         } else if values.len() != nt {
             v.push(
@@ -100,7 +101,6 @@ impl TdcrSolver {
                 &format!("{nt} values, one per tendon"),
             );
         }
-        let displacement = matches!(control, TendonControl::Displacement(_));
         for (k, &x) in values.iter().enumerate() {
             let negative_tension = !displacement && x < 0.0;
             // A displacement beyond any rod's length: a slack of 1e308 m "converged" and

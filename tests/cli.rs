@@ -925,7 +925,7 @@ fn a_failed_sweep_leaves_no_directory_it_made() {
     let heavy = design_with("heavy-ws", "mass: 0.0344", "mass: 1000.0");
     let out = std::env::temp_dir().join(format!("tdpcr-ws-failed-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let args = |out: &std::path::Path| {
+    let fails_into = |out: &std::path::Path| {
         let o = tdpcr(&[
             "workspace",
             heavy.to_str().unwrap(),
@@ -942,10 +942,10 @@ fn a_failed_sweep_leaves_no_directory_it_made() {
     // Its parents too, and only what it made: `new/../kept` does not resolve before
     // `new` exists (judged missing by its path, `kept` was removed).
     let nested = out.join("a").join("b");
-    args(&nested);
+    fails_into(&nested);
     assert!(!out.exists(), "an empty directory was left behind");
     std::fs::create_dir_all(out.join("kept")).unwrap();
-    args(&out.join("new").join("..").join("kept"));
+    fails_into(&out.join("new").join("..").join("kept"));
     assert!(
         out.join("kept").is_dir(),
         "the user's directory was removed"
@@ -954,7 +954,7 @@ fn a_failed_sweep_leaves_no_directory_it_made() {
         !out.join("new").exists(),
         "a directory it made was left behind"
     );
-    args(&out);
+    fails_into(&out);
     assert!(out.is_dir(), "the user's directory was removed");
     std::fs::remove_dir_all(&out).ok();
     std::fs::remove_file(heavy).ok();
