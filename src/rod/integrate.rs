@@ -17,11 +17,11 @@ use crate::error::SolveError;
 use crate::rod::lanes::{F64x4, Real, cross, dot, mat_vec};
 use crate::rod::leg_model::LegModel;
 pub use crate::rod::rhs::MAX_LEGS;
-use crate::rod::rhs::{FEEDBACK_ROWS, RkEmit, RodState, Stage};
+use crate::rod::rhs::{RodState, Stage};
 use crate::rod::slots::TendonSlots;
 use crate::rod::tableau::MAX_STAGES;
 pub use crate::rod::tangents::MAX_DIRECTIONS;
-use crate::rod::tangents::Tangents;
+use crate::rod::tangents::{FEEDBACK_ROWS, K_P, K_S, K_U, K_V, Tangents};
 use crate::spatial::Frame;
 
 /// The state at the tip of a leg (world frame, SI).
@@ -208,27 +208,22 @@ impl LegShape {
     }
 }
 
-/// The tangent buffers of one leg: at the start of the step, the step's running sum, and
-/// the inputs of the current and the next RK stage (two buffers, swapped after each stage).
+/// The tangent buffers of one leg: at the start of the step (then its end, formed in
+/// place), the input of the current RK stage (overwritten by the next one's once the
+/// stage's k is known), and each stage's derivative k_i.
 #[derive(Debug, Clone)]
 struct LegTangents {
     dy: Box<Tangents>,
-    dy_next: Box<Tangents>,
     dy_stage: Box<Tangents>,
-    dy_stage_next: Box<Tangents>,
-    /// The R, v, u rows of the stages' derivatives k_i a later stage reads
-    /// ([`RkEmit::kept`]).
-    kept: Vec<f64>,
+    ks: Box<[Tangents; MAX_STAGES]>,
 }
 
 impl LegTangents {
     fn new() -> Self {
         Self {
             dy: Box::new(Tangents::zeros()),
-            dy_next: Box::new(Tangents::zeros()),
             dy_stage: Box::new(Tangents::zeros()),
-            dy_stage_next: Box::new(Tangents::zeros()),
-            kept: vec![0.0; MAX_STAGES * FEEDBACK_ROWS * MAX_DIRECTIONS],
+            ks: Box::new(std::array::from_fn(|_| Tangents::zeros())),
         }
     }
 }
@@ -608,15 +603,16 @@ fn integrate_lanes<const N: usize, T: Real>(
             let rot = y.r.map(|e| e.lane(leg));
             let (n_body, m_body) = (lane3(&n_body, leg), lane3(&m_body, leg));
             for (j, d) in sens.d[..nd].iter_mut().enumerate() {
-                let dr = Matrix3::from_fn(|row, col| dy.r[3 * col + row][j]);
-                let dv = Vector3::new(dy.v[0][j], dy.v[1][j], dy.v[2][j]);
-                let du = Vector3::new(dy.u[0][j], dy.u[1][j], dy.u[2][j]);
+                let at = |row: usize| dy.row::<N>(row)[j];
+                let dr = Matrix3::from_fn(|row, col| at(3 * col + row));
+                let dv = Vector3::new(at(K_V), at(K_V + 1), at(K_V + 2));
+                let du = Vector3::new(at(K_U), at(K_U + 1), at(K_U + 2));
                 let mut lengths = [0.0; MAX_TENDONS];
                 for k in 0..nt {
-                    lengths[k] = dy.s[k][j];
+                    lengths[k] = at(K_S + k);
                 }
                 *d = LegEnd {
-                    p: Vector3::new(dy.p[0][j], dy.p[1][j], dy.p[2][j]),
+                    p: Vector3::new(at(K_P), at(K_P + 1), at(K_P + 2)),
                     r: dr,
                     n: dr * n_body + rot * model.k_se.component_mul(&dv),
                     m: dr * m_body + rot * model.k_bt.component_mul(&du),
@@ -634,9 +630,9 @@ fn integrate_lanes<const N: usize, T: Real>(
 /// are the exact derivatives of the discrete step). The ODE is autonomous within an
 /// interval, so the stages need no c. The step y + h Σ_i b_i k_i accumulates stage by
 /// stage; a stage input y + h Σ_j a_ij k_j carries only R, v, u (p and s do not feed
-/// back). The tangents' k are emitted straight into the sum and the next input (no
-/// buffer); only the rows R, v, u of a k that a later stage reads are kept, compactly
-/// (`N` lanes a row), and added to that stage's input in one pass.
+/// back). The tangents' k_i are stored whole; each stage input is formed from them in one
+/// pass, the step's end in one pass after the last stage
+/// ([`Tangents::set_combination`]).
 #[inline(always)]
 fn rk_step<const N: usize, T: Real>(
     model: &LegModel,
@@ -682,49 +678,42 @@ fn rk_step<const N: usize, T: Real>(
         }
         if N > 0 {
             stage.linearize(model, tendons, tension_lanes, nd);
-            let block = FEEDBACK_ROWS * N;
-            let keep = tab.kept[i];
             for (leg, tg) in tangents[..legs].iter_mut().enumerate() {
-                let LegTangents {
-                    dy,
-                    dy_next,
-                    dy_stage,
-                    dy_stage_next,
-                    kept,
-                } = tg;
+                let LegTangents { dy, dy_stage, ks } = tg;
                 let d = if i == 0 { &**dy } else { &**dy_stage };
-                let (earlier, this) = kept.split_at_mut(i * block);
-                let mut emit = RkEmit {
-                    base: dy,
-                    sum: dy_next,
-                    weight: b,
-                    first: i == 0,
-                    next: next.map(|(_, c)| (&mut **dy_stage_next, c)),
-                    kept: keep.then(|| &mut this[..block]),
-                };
-                stage.tangents::<N>(leg, model, tendons, d, &mut emit);
-                // The next input's terms of earlier stages (RK4 has none).
-                let earlier_terms = next.map_or(0, |_| tab.earlier[i + 1].n);
-                if earlier_terms > 0 {
-                    let from = &tab.earlier[i + 1];
-                    let mut terms = [(0.0, &earlier[..0]); MAX_STAGES];
-                    for (t, term) in terms[..earlier_terms].iter_mut().enumerate() {
-                        let j = from.stage[t];
-                        *term = (
-                            h * from.coefficient[t],
-                            &earlier[j * block..(j + 1) * block],
-                        );
+                stage.tangents::<N>(leg, model, tendons, d, &mut ks[i]);
+                // The next stage's input in one pass: this stage's term first, then the
+                // earlier stages' in order (RK4 has none).
+                if i + 1 < tab.stages {
+                    let earlier = &tab.earlier[i + 1];
+                    let mut terms = [(0.0, &ks[0]); MAX_STAGES];
+                    terms[0] = (h * tab.a[i + 1][i], &ks[i]);
+                    for t in 0..earlier.n {
+                        terms[1 + t] = (h * earlier.coefficient[t], &ks[earlier.stage[t]]);
                     }
-                    dy_stage_next.add_kept::<N>(&terms[..earlier_terms]);
+                    dy_stage.set_combination::<N>(Some(dy), &terms[..1 + earlier.n], FEEDBACK_ROWS);
                 }
-                std::mem::swap(dy_stage, dy_stage_next);
             }
         }
     }
     std::mem::swap(y, y_next);
     if N > 0 {
+        // The step's end: the first stage's term, then every other stage with a weight.
+        let mut n = 1;
+        let mut weights = [(h * tab.b[0], 0); MAX_STAGES];
+        for i in 1..tab.stages {
+            let w = h * tab.b[i];
+            if w != 0.0 {
+                weights[n] = (w, i);
+                n += 1;
+            }
+        }
         for tg in &mut tangents[..legs] {
-            std::mem::swap(&mut tg.dy, &mut tg.dy_next);
+            let mut terms = [(0.0, &tg.ks[0]); MAX_STAGES];
+            for (term, &(w, i)) in terms.iter_mut().zip(&weights[..n]) {
+                *term = (w, &tg.ks[i]);
+            }
+            tg.dy.set_combination::<N>(None, &terms[..n], K_S + nt);
         }
     }
     Ok(())
@@ -767,23 +756,24 @@ fn apply_tendon_ends<const N: usize, T: Real>(
             let (len, tau) = (len.lane(leg), tau.lane(leg));
             let (pre, dy) = (&tg.dy_stage, &mut tg.dy);
             for j in 0..N {
-                let dv = Vector3::new(pre.v[0][j], pre.v[1][j], pre.v[2][j]);
-                let du = Vector3::new(pre.u[0][j], pre.u[1][j], pre.u[2][j]);
+                let at = |row: usize| pre.row::<N>(row)[j];
+                let dv = Vector3::new(at(K_V), at(K_V + 1), at(K_V + 2));
+                let du = Vector3::new(at(K_U), at(K_U + 1), at(K_U + 2));
                 let dw = dv + du.cross(&r_k);
                 let dforce = (dw - t * t.dot(&dw)) * (tau / len);
                 let jump_v = inv_se.component_mul(&dforce);
                 let jump_u = inv_bt.component_mul(&r_k.cross(&dforce));
                 for c in 0..3 {
-                    dy.v[c][j] += jump_v[c];
-                    dy.u[c][j] += jump_u[c];
+                    dy.row_mut::<N>(K_V + c)[j] += jump_v[c];
+                    dy.row_mut::<N>(K_U + c)[j] += jump_u[c];
                 }
             }
             // The tension direction of the slot's tendon: ∂(τ t)/∂τ = t.
             if tension_lane < nd {
                 let (jump_v, jump_u) = (inv_se.component_mul(&t), inv_bt.component_mul(&rt));
                 for c in 0..3 {
-                    dy.v[c][tension_lane] += jump_v[c];
-                    dy.u[c][tension_lane] += jump_u[c];
+                    dy.row_mut::<N>(K_V + c)[tension_lane] += jump_v[c];
+                    dy.row_mut::<N>(K_U + c)[tension_lane] += jump_u[c];
                 }
             }
         }

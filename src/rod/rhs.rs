@@ -36,7 +36,7 @@ use crate::rod::lanes::{Real, all_finite, cross, dot, fma, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
 use crate::rod::slots::TendonSlots;
-use crate::rod::tangents::{Lanes, MAX_DIRECTIONS, Tangents};
+use crate::rod::tangents::{K_P, K_S, K_U, K_V, MAX_DIRECTIONS, Tangents};
 
 /// Most legs one [`Stage`] holds (the lanes of [`F64x4`](super::lanes::F64x4)).
 pub const MAX_LEGS: usize = 4;
@@ -84,7 +84,8 @@ impl<T: Real> RodState<T> {
     /// self = y + Σ_j c_j k_j over R, v, u, the parts that feed back into the right-hand
     /// side (a stage input: p and s are not needed), the terms in order, a product then a
     /// sum each (no fused multiply–add). At most `MAX_STAGES` − 1 terms, dispatched on
-    /// their number to an unrolled loop (as [`Tangents::add_kept`](super::tangents::Tangents::add_kept)).
+    /// their number to an unrolled loop (as
+    /// [`Tangents::set_combination`](super::tangents::Tangents::set_combination)).
     #[inline(always)]
     pub fn set_stage_input(&mut self, y: &Self, terms: &[(f64, &Self)]) {
         match terms.len() {
@@ -197,7 +198,7 @@ pub struct Stage<T: Real = f64> {
     h: [[T; 6]; 6],
     /// Per leg and row, the tension directions' source P_kᵀ q_k / ℓ_k in lane 6 + k
     /// (zero elsewhere), contiguous over directions for the tangent products.
-    inject: [[Lanes; 6]; MAX_LEGS],
+    inject: [[[f64; MAX_DIRECTIONS]; 6]; MAX_LEGS],
 }
 
 impl<T: Real> Stage<T> {
@@ -484,9 +485,8 @@ impl<T: Real> Stage<T> {
     }
 
     /// Propagates the tangents of leg (lane) `leg` through this stage at the last
-    /// [`Stage::linearize`]: the derivative k of the first `N` lanes of `d` (only its R, v,
-    /// u lanes are read) is emitted straight into the step's sum and the kept rows of
-    /// `step` (no intermediate buffer).
+    /// [`Stage::linearize`]: writes the derivative k of the first `N` lanes of `d` (only
+    /// its R, v, u rows are read) into `k` (every row).
     #[inline(always)]
     pub fn tangents<const N: usize>(
         &self,
@@ -494,7 +494,7 @@ impl<T: Real> Stage<T> {
         model: &LegModel,
         tendons: &TendonSlots<T>,
         d: &Tangents,
-        step: &mut RkEmit,
+        k: &mut Tangents,
     ) {
         // The leg's lanes are read in place (`*x.lane_ref(leg)`), one named scalar each:
         // copied out first (`map` over a row), each went through the stack before its
@@ -503,6 +503,20 @@ impl<T: Real> Stage<T> {
         let at = |x: &T| *x.lane_ref(leg);
         let lane = |x: &Vector3<T>| Vector3::new(at(&x.x), at(&x.y), at(&x.z));
         let f = &model.weight_per_length;
+        let row = |i| *d.row::<N>(i);
+        let dv = [row(K_V), row(K_V + 1), row(K_V + 2)];
+        let du = [row(K_U), row(K_U + 1), row(K_U + 2)];
+        let dr = [
+            row(0),
+            row(1),
+            row(2),
+            row(3),
+            row(4),
+            row(5),
+            row(6),
+            row(7),
+            row(8),
+        ];
         let mut b = [[0.0; N]; 6];
         for (row, b_row) in b.iter_mut().enumerate() {
             let h = &self.h[row];
@@ -510,20 +524,20 @@ impl<T: Real> Stage<T> {
             let (h3, h4, h5) = (at(&h[3]), at(&h[4]), at(&h[5]));
             let inject = &self.inject[leg][row];
             for j in 0..N {
-                let mut acc = fma(h0, d.v[0][j], inject[j]);
-                acc = fma(h1, d.v[1][j], acc);
-                acc = fma(h2, d.v[2][j], acc);
-                acc = fma(h3, d.u[0][j], acc);
-                acc = fma(h4, d.u[1][j], acc);
-                b_row[j] = fma(h5, d.u[2][j], acc);
+                let mut acc = fma(h0, dv[0][j], inject[j]);
+                acc = fma(h1, dv[1][j], acc);
+                acc = fma(h2, dv[2][j], acc);
+                acc = fma(h3, du[0][j], acc);
+                acc = fma(h4, du[1][j], acc);
+                b_row[j] = fma(h5, du[2][j], acc);
             }
         }
         // e = dRᵀ f (R stored column-major: entry (row, col) at 3 col + row).
         for c in 0..3 {
             for j in 0..N {
-                let acc = fma(d.r[3 * c][j], f.x, b[c][j]);
-                let acc = fma(d.r[3 * c + 1][j], f.y, acc);
-                b[c][j] = fma(d.r[3 * c + 2][j], f.z, acc);
+                let acc = fma(dr[3 * c][j], f.x, b[c][j]);
+                let acc = fma(dr[3 * c + 1][j], f.y, acc);
+                b[c][j] = fma(dr[3 * c + 2][j], f.z, acc);
             }
         }
         for slot in 0..model.n_tendons {
@@ -531,14 +545,14 @@ impl<T: Real> Stage<T> {
             if self.active & (1 << slot) != 0 {
                 let (t, rt) = (lane(&self.tendons[slot].t), lane(&self.tendons[slot].rt));
                 for j in 0..N {
-                    let acc = fma(t.y, d.v[1][j], t.x * d.v[0][j]);
-                    let acc = fma(t.z, d.v[2][j], acc);
-                    let acc = fma(rt.x, d.u[0][j], acc);
-                    let acc = fma(rt.y, d.u[1][j], acc);
-                    ds[j] = fma(rt.z, d.u[2][j], acc);
+                    let acc = fma(t.y, dv[1][j], t.x * dv[0][j]);
+                    let acc = fma(t.z, dv[2][j], acc);
+                    let acc = fma(rt.x, du[0][j], acc);
+                    let acc = fma(rt.y, du[1][j], acc);
+                    ds[j] = fma(rt.z, du[2][j], acc);
                 }
             }
-            step.passive(Row::S(tendons.tendon[leg][slot]), &ds);
+            *k.row_mut::<N>(K_S + tendons.tendon[leg][slot]) = ds;
         }
         let (v, u) = (lane(&self.v), lane(&self.u));
         let rot = &self.r;
@@ -546,23 +560,23 @@ impl<T: Real> Stage<T> {
             let (r0, r1, r2) = (at(&rot[(row, 0)]), at(&rot[(row, 1)]), at(&rot[(row, 2)]));
             let (mut dp, mut c0, mut c1, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
             for j in 0..N {
-                let (a0, a1, a2) = (d.r[row][j], d.r[3 + row][j], d.r[6 + row][j]);
-                let (w0, w1, w2) = (d.u[0][j], d.u[1][j], d.u[2][j]);
+                let (a0, a1, a2) = (dr[row][j], dr[3 + row][j], dr[6 + row][j]);
+                let (w0, w1, w2) = (du[0][j], du[1][j], du[2][j]);
                 // dp' = dR v + R dv
                 let acc = fma(a1, v.y, a0 * v.x);
                 let acc = fma(a2, v.z, acc);
-                let acc = fma(r0, d.v[0][j], acc);
-                let acc = fma(r1, d.v[1][j], acc);
-                dp[j] = fma(r2, d.v[2][j], acc);
+                let acc = fma(r0, dv[0][j], acc);
+                let acc = fma(r1, dv[1][j], acc);
+                dp[j] = fma(r2, dv[2][j], acc);
                 // dR' = dR û + R dû, column by column: M x̂ e_j = M (x × e_j).
                 c0[j] = fma(a1, u.z, fma(-a2, u.y, fma(r1, w2, -r2 * w1)));
                 c1[j] = fma(a2, u.x, fma(-a0, u.z, fma(r2, w0, -r0 * w2)));
                 c2[j] = fma(a0, u.y, fma(-a1, u.x, fma(r0, w1, -r1 * w0)));
             }
-            step.passive(Row::P(row), &dp);
-            step.active(Row::R(row), &c0);
-            step.active(Row::R(3 + row), &c1);
-            step.active(Row::R(6 + row), &c2);
+            *k.row_mut::<N>(K_P + row) = dp;
+            *k.row_mut::<N>(row) = c0;
+            *k.row_mut::<N>(3 + row) = c1;
+            *k.row_mut::<N>(6 + row) = c2;
         }
         self.factor.solve_lanes(leg, &mut b);
         for c in 0..3 {
@@ -570,118 +584,8 @@ impl<T: Real> Stage<T> {
                 b[c][j] = -b[c][j];
                 b[3 + c][j] = -b[3 + c][j];
             }
-            step.active(Row::V(c), &b[c]);
-            step.active(Row::U(c), &b[3 + c]);
-        }
-    }
-}
-
-/// A component row of [`Tangents`].
-#[derive(Debug, Clone, Copy)]
-pub enum Row {
-    /// p_c.
-    P(usize),
-    /// R entry 3·col + row.
-    R(usize),
-    /// v_c.
-    V(usize),
-    /// u_c.
-    U(usize),
-    /// s_k.
-    S(usize),
-}
-
-impl Tangents {
-    #[inline(always)]
-    fn row(&self, r: Row) -> &Lanes {
-        match r {
-            Row::P(c) => &self.p[c],
-            Row::R(c) => &self.r[c],
-            Row::V(c) => &self.v[c],
-            Row::U(c) => &self.u[c],
-            Row::S(k) => &self.s[k],
-        }
-    }
-
-    #[inline(always)]
-    fn row_mut(&mut self, r: Row) -> &mut Lanes {
-        match r {
-            Row::P(c) => &mut self.p[c],
-            Row::R(c) => &mut self.r[c],
-            Row::V(c) => &mut self.v[c],
-            Row::U(c) => &mut self.u[c],
-            Row::S(k) => &mut self.s[k],
-        }
-    }
-}
-
-/// Where one RK stage's tangent derivative k goes: streamed into the step's sum
-/// (`sum = base + w·k` at the first stage, `sum += w·k` after) and, for the rows that feed
-/// back (R, v, u), into the next stage's input (`next = base + c·k`, the input's term of
-/// this stage) and, if a later stage reads them, kept
-/// ([`Tangents::add_kept`]).
-pub struct RkEmit<'a> {
-    /// Tangents at the start of the step.
-    pub base: &'a Tangents,
-    /// The step's running sum.
-    pub sum: &'a mut Tangents,
-    /// Weight h b_i of this stage in the sum.
-    pub weight: f64,
-    /// Whether this is the first stage (the sum starts from `base`).
-    pub first: bool,
-    /// The next stage's input and this stage's coefficient in it, h a_(i+1, i), unless
-    /// this is the last stage.
-    pub next: Option<(&'a mut Tangents, f64)>,
-    /// Where this stage's k is kept, if a stage after the next reads it: the
-    /// [`FEEDBACK_ROWS`] rows R (9), v (3), u (3), `N` lanes each, row after row.
-    pub kept: Option<&'a mut [f64]>,
-}
-
-/// `out = base + c·k` over the first `N` lanes, formed in a local array and then copied.
-/// Written straight into `out`, the compiler could not rule out that `out` overlaps
-/// `base` (both reached through [`RkEmit`]'s references) and emitted a scalar load,
-/// fused multiply–add and store per lane: about 65 k of a 6-DoF exact Jacobian's 496 k
-/// instructions (callgrind, 2026-11-26, eighth session). The same operations.
-#[inline(always)]
-fn set_sum<const N: usize>(out: &mut Lanes, base: &Lanes, c: f64, k: &[f64; N]) {
-    let sum: [f64; N] = std::array::from_fn(|j| fma(c, k[j], base[j]));
-    out[..N].copy_from_slice(&sum);
-}
-
-/// Rows of the tangents that feed back into the right-hand side: R, v, u.
-pub const FEEDBACK_ROWS: usize = 15;
-
-impl RkEmit<'_> {
-    /// A row that feeds back (R, v, u): into the sum, the next stage's input and the kept
-    /// rows.
-    #[inline(always)]
-    fn active<const N: usize>(&mut self, row: Row, k: &[f64; N]) {
-        self.passive(row, k);
-        if let Some((next, c)) = self.next.as_mut() {
-            set_sum(next.row_mut(row), self.base.row(row), *c, k);
-        }
-        if let Some(kept) = self.kept.as_deref_mut() {
-            let index = match row {
-                Row::R(c) => c,
-                Row::V(c) => 9 + c,
-                Row::U(c) => 12 + c,
-                Row::P(_) | Row::S(_) => return,
-            };
-            kept[index * N..(index + 1) * N].copy_from_slice(k);
-        }
-    }
-
-    /// A row that does not feed back (p, s): into the sum only.
-    #[inline(always)]
-    fn passive<const N: usize>(&mut self, row: Row, k: &[f64; N]) {
-        let a = self.weight;
-        let out = self.sum.row_mut(row);
-        if self.first {
-            set_sum(out, self.base.row(row), a, k);
-        } else if a != 0.0 {
-            for j in 0..N {
-                out[j] = fma(a, k[j], out[j]);
-            }
+            *k.row_mut::<N>(K_V + c) = b[c];
+            *k.row_mut::<N>(K_U + c) = b[3 + c];
         }
     }
 }
