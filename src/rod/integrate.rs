@@ -500,7 +500,7 @@ fn integrate_lanes<const N: usize, T: Real>(
                 buf.tension_lanes[leg][slot] = sens.tension_lanes[k];
             }
         }
-        buf.stage.clear_tension_sources();
+        buf.stage.clear_tension_sources(legs, N);
         for tg in &mut buf.tangents[..legs] {
             tg.dy.set_initial::<N>(nt);
         }
