@@ -36,7 +36,9 @@ impl<T: Real> Ldlt6<T> {
     ///
     /// In place rather than returned: the kernel's stage kept its factorization by copying
     /// a returned one (1.2 kB at four lanes: about 1 % of an exact Jacobian's
-    /// instructions, callgrind, 2026-11-28).
+    /// instructions, callgrind, 2026-11-28). A primal integration now stores it too
+    /// (residual 80.4 k → 83.6 k instructions, its time unchanged; BENCHMARKS.md "The
+    /// stages' derivatives stored, each sum formed once").
     #[inline(always)]
     pub fn refactor(&mut self, a: &Matrix3<T>, b: &Matrix3<T>, c: &Matrix3<T>) -> bool {
         let Some(a_inv) = symmetric_inverse(a) else {
