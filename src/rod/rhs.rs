@@ -231,7 +231,8 @@ impl<T: Real> Stage<T> {
     /// tensions in `tendons`),
     /// writing the derivative of p, R, v, u and s to `out` and keeping what
     /// [`Stage::linearize`] needs if `keep` (a primal-only integration passes `false` and
-    /// skips those stores: 12 % fewer instructions per primal leg integration, issue 12).
+    /// skips those stores: 12 % fewer instructions per primal leg integration, issue 12;
+    /// the strain system's factorization is stored either way, [`Ldlt6::refactor`]).
     ///
     /// # Errors
     /// [`SolveError::NonFinite`] if the state is not finite or the strain system is not
@@ -494,7 +495,7 @@ impl<T: Real> Stage<T> {
 
     /// Propagates the tangents of leg (lane) `leg` through this stage at the last
     /// [`Stage::linearize`]: writes the derivative k of the first `N` lanes of `d` (only
-    /// its R, v, u rows are read) into `k` (every row).
+    /// its R, v, u rows are read) into `k`'s rows `0..K_S + n_t` (every component).
     #[inline(always)]
     pub fn tangents<const N: usize>(
         &self,

@@ -40,10 +40,8 @@ pub struct Tableau {
     /// The nonzero terms of each stage input, j ascending.
     pub(crate) inputs: [Terms; MAX_STAGES],
     /// The nonzero terms of each stage input i but the previous stage's (j < i − 1): what
-    /// the kernel adds to the input after emitting stage i − 1's k into it.
+    /// the tangents' stage input adds, in this order, after the previous stage's term.
     pub(crate) earlier: [Terms; MAX_STAGES],
-    /// Whether a stage after `i + 1` reads k_i (which must then be kept).
-    pub(crate) kept: [bool; MAX_STAGES],
 }
 
 /// The nonzero terms (j, c_j) of a sum Σ_j c_j k_j, j ascending.
@@ -118,7 +116,6 @@ impl Tableau {
         }
         let none = Terms::of(&[0.0; MAX_STAGES]);
         let (mut inputs, mut earlier) = ([none; MAX_STAGES], [none; MAX_STAGES]);
-        let mut kept = [false; MAX_STAGES];
         let mut i = 0;
         while i < MAX_STAGES {
             inputs[i] = Terms::of(&a[i]);
@@ -127,11 +124,6 @@ impl Tableau {
                 row[i - 1] = 0.0;
             }
             earlier[i] = Terms::of(&row);
-            let mut j = 0;
-            while j + 1 < i {
-                kept[j] = kept[j] || a[i][j] != 0.0;
-                j += 1;
-            }
             i += 1;
         }
         Self {
@@ -140,7 +132,6 @@ impl Tableau {
             b,
             inputs,
             earlier,
-            kept,
         }
     }
 }
@@ -267,10 +258,8 @@ mod tests {
     }
 
     #[test]
-    fn only_the_stages_read_beyond_the_next_are_kept() {
-        assert_eq!(RK4.kept, [false; MAX_STAGES]);
-        assert_eq!(RK5.kept, [true, true, true, true, false, false]);
-        // Stage 5's input reads k_0 .. k_4; k_4 is emitted into it directly.
+    fn a_stage_input_lists_the_earlier_stages_it_reads_apart_from_the_previous_one() {
+        // Stage 5's input reads k_0 .. k_4: k_4 first, then the earlier four in order.
         let earlier: Vec<_> = RK5.earlier[5].iter().map(|(j, _)| j).collect();
         assert_eq!(earlier, [0, 1, 2, 3]);
         assert_eq!(RK5.inputs[5].n, 5);

@@ -36,7 +36,12 @@ pub const ROWS: usize = K_S + MAX_TENDONS;
 /// ∂(rod state)/∂(direction j) for every lane j, or one RK stage's derivative of it:
 /// position, rotation (column-major 3×3), strains and tendon path lengths, row by row
 /// (the feedback rows R, v, u first, so a stage input is rows `0..FEEDBACK_ROWS`).
+///
+/// Aligned to a cache line, so that a row of 8 lanes is one line (at the allocator's 16
+/// bytes every row spanned two: the exact Jacobian 8 % slower, BENCHMARKS.md "The stages'
+/// derivatives stored, each sum formed once").
 #[derive(Debug, Clone, PartialEq)]
+#[repr(C, align(64))]
 pub struct Tangents {
     /// Row `i`, lane `j` at `i·N + j` (for the `N` of the kernel that wrote it).
     data: [f64; ROWS * MAX_DIRECTIONS],
