@@ -38,7 +38,7 @@ pub const ROWS: usize = K_S + MAX_TENDONS;
 /// (the feedback rows R, v, u first, so a stage input is rows `0..FEEDBACK_ROWS`).
 ///
 /// Aligned to a cache line, so that a row of 8 lanes is one line (at the allocator's 16
-/// bytes every row spanned two: the exact Jacobian 8 % slower, BENCHMARKS.md "The stages'
+/// bytes every row spanned two: the exact Jacobian about 7 % slower, BENCHMARKS.md "The stages'
 /// derivatives stored, each sum formed once").
 #[derive(Debug, Clone, PartialEq)]
 #[repr(C, align(64))]
