@@ -59,6 +59,13 @@ impl<T: Real> Ldlt6<T> {
         true
     }
 
+    /// Factors \[A Bᵀ; B C\] into a new factorization ([`Ldlt6::refactor`]); `None` where
+    /// that is false.
+    pub fn factor_blocks(a: &Matrix3<T>, b: &Matrix3<T>, c: &Matrix3<T>) -> Option<Self> {
+        let mut factor = Self::identity();
+        factor.refactor(a, b, c).then_some(factor)
+    }
+
     /// Solves M \[x1; x2\] = \[b1; b2\].
     #[inline(always)]
     pub fn solve_blocks(&self, b1: &Vector3<T>, b2: &Vector3<T>) -> (Vector3<T>, Vector3<T>) {
@@ -168,13 +175,11 @@ mod tests {
     }
 
     fn factor(m: &Matrix6<f64>) -> Option<Ldlt6> {
-        let mut f = Ldlt6::identity();
-        f.refactor(
+        Ldlt6::factor_blocks(
             &m.fixed_view::<3, 3>(0, 0).into_owned(),
             &m.fixed_view::<3, 3>(3, 0).into_owned(),
             &m.fixed_view::<3, 3>(3, 3).into_owned(),
         )
-        .then_some(f)
     }
 
     #[test]

@@ -36,6 +36,8 @@ use crate::rod::lanes::{Real, all_finite, cross, dot, fma, mat_vec, tr_mat_vec};
 use crate::rod::ldlt6::Ldlt6;
 use crate::rod::leg_model::LegModel;
 use crate::rod::slots::TendonSlots;
+/// Rows of the tangents that feed back into the right-hand side (here before 2026-11-28).
+pub use crate::rod::tangents::FEEDBACK_ROWS;
 use crate::rod::tangents::{K_P, K_S, K_U, K_V, MAX_DIRECTIONS, Tangents};
 
 /// Most legs one [`Stage`] holds (the lanes of [`F64x4`](super::lanes::F64x4)).
