@@ -169,7 +169,9 @@ def test_fk_many_releases_the_gil(robot):
     """The main thread keeps running Python while another thread is in fk_many: the
     longest pause between its loop turns stays well below the batch's duration (with the
     GIL held it would be the whole batch)."""
-    Q = np.tile(Q6, (128, 1))
+    # Long enough to see the pauses (128 rows took 46 ms on the 2-core machine once the
+    # Jacobian got faster, 2026-11-28, under the 50 ms this test needs).
+    Q = np.tile(Q6, (512, 1))
     worker = threading.Thread(target=robot.fk_many, args=(Q,))
     turns = []
     start = time.perf_counter()
