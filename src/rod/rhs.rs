@@ -516,44 +516,15 @@ impl<T: Real> Stage<T> {
         let f = &model.weight_per_length;
         // The input rows as copies, not references: through an array of references the
         // products below were compiled as scalar FMAs (the exact Jacobian 357 k → 408 k
-        // instructions, callgrind, 2026-11-28).
+        // instructions, callgrind, 2026-11-28); read element by element at their use,
+        // 348 k → 393 k. R's rows are copied where they are used, not all nine up front
+        // (they went through the stack: 348.5 k → 338.7 k), and the outputs that do not
+        // need the strain solve come first, so that b's twelve vectors are not live across
+        // them (→ 326.3 k; bitwise the same results, BENCHMARKS.md "The tangent kernel's
+        // live values").
         let row = |i| *d.row::<N>(i);
         let dv = [row(K_V), row(K_V + 1), row(K_V + 2)];
         let du = [row(K_U), row(K_U + 1), row(K_U + 2)];
-        let dr = [
-            row(0),
-            row(1),
-            row(2),
-            row(3),
-            row(4),
-            row(5),
-            row(6),
-            row(7),
-            row(8),
-        ];
-        let mut b = [[0.0; N]; 6];
-        for (row, b_row) in b.iter_mut().enumerate() {
-            let h = &self.h[row];
-            let (h0, h1, h2) = (at(&h[0]), at(&h[1]), at(&h[2]));
-            let (h3, h4, h5) = (at(&h[3]), at(&h[4]), at(&h[5]));
-            let inject = &self.inject[leg][row];
-            for j in 0..N {
-                let mut acc = fma(h0, dv[0][j], inject[j]);
-                acc = fma(h1, dv[1][j], acc);
-                acc = fma(h2, dv[2][j], acc);
-                acc = fma(h3, du[0][j], acc);
-                acc = fma(h4, du[1][j], acc);
-                b_row[j] = fma(h5, du[2][j], acc);
-            }
-        }
-        // e = dRᵀ f (R stored column-major: entry (row, col) at 3 col + row).
-        for c in 0..3 {
-            for j in 0..N {
-                let acc = fma(dr[3 * c][j], f.x, b[c][j]);
-                let acc = fma(dr[3 * c + 1][j], f.y, acc);
-                b[c][j] = fma(dr[3 * c + 2][j], f.z, acc);
-            }
-        }
         for slot in 0..model.n_tendons {
             let mut ds = [0.0; N];
             if self.active & (1 << slot) != 0 {
@@ -570,11 +541,12 @@ impl<T: Real> Stage<T> {
         }
         let (v, u) = (lane(&self.v), lane(&self.u));
         let rot = &self.r;
-        for row in 0..3 {
-            let (r0, r1, r2) = (at(&rot[(row, 0)]), at(&rot[(row, 1)]), at(&rot[(row, 2)]));
+        for i in 0..3 {
+            let (r0, r1, r2) = (at(&rot[(i, 0)]), at(&rot[(i, 1)]), at(&rot[(i, 2)]));
             let (mut dp, mut c0, mut c1, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+            let dr = [row(i), row(3 + i), row(6 + i)];
             for j in 0..N {
-                let (a0, a1, a2) = (dr[row][j], dr[3 + row][j], dr[6 + row][j]);
+                let (a0, a1, a2) = (dr[0][j], dr[1][j], dr[2][j]);
                 let (w0, w1, w2) = (du[0][j], du[1][j], du[2][j]);
                 // dp' = dR v + R dv
                 let acc = fma(a1, v.y, a0 * v.x);
@@ -587,10 +559,37 @@ impl<T: Real> Stage<T> {
                 c1[j] = fma(a2, u.x, fma(-a0, u.z, fma(r2, w0, -r0 * w2)));
                 c2[j] = fma(a0, u.y, fma(-a1, u.x, fma(r0, w1, -r1 * w0)));
             }
-            *k.row_mut::<N>(K_P + row) = dp;
-            *k.row_mut::<N>(row) = c0;
-            *k.row_mut::<N>(3 + row) = c1;
-            *k.row_mut::<N>(6 + row) = c2;
+            *k.row_mut::<N>(K_P + i) = dp;
+            *k.row_mut::<N>(i) = c0;
+            *k.row_mut::<N>(3 + i) = c1;
+            *k.row_mut::<N>(6 + i) = c2;
+        }
+        // b = H [dv; du] + the tension sources, column by column: each row's products are
+        // summed in column order either way, but by rows the compiler spilled the twelve
+        // accumulators after their first product (338.7 k → 335.7 k instructions).
+        let mut b = [[0.0; N]; 6];
+        for (row, b_row) in b.iter_mut().enumerate() {
+            *b_row = self.inject[leg][row][..N].try_into().expect("N lanes");
+        }
+        for (col, x) in [&dv[0], &dv[1], &dv[2], &du[0], &du[1], &du[2]]
+            .into_iter()
+            .enumerate()
+        {
+            for (row, b_row) in b.iter_mut().enumerate() {
+                let h = at(&self.h[row][col]);
+                for j in 0..N {
+                    b_row[j] = fma(h, x[j], b_row[j]);
+                }
+            }
+        }
+        // e = dRᵀ f (R stored column-major: entry (row, col) at 3 col + row).
+        for c in 0..3 {
+            let dr = [row(3 * c), row(3 * c + 1), row(3 * c + 2)];
+            for j in 0..N {
+                let acc = fma(dr[0][j], f.x, b[c][j]);
+                let acc = fma(dr[1][j], f.y, acc);
+                b[c][j] = fma(dr[2][j], f.z, acc);
+            }
         }
         self.factor.solve_lanes(leg, &mut b);
         for c in 0..3 {
