@@ -296,23 +296,35 @@ impl<T: Real> Stage<T> {
             let taut = c.nonzero();
             if T::any(taut) {
                 let (hat_r, hat_sq) = (&tendons.hats[k], &tendons.hat_squares[k]);
-                let add = |acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x);
-                for i in 0..3 {
-                    for j in i..3 {
-                        let id = T::splat(if i == j { 1.0 } else { 0.0 });
-                        add(&mut blk_a[(i, j)], c * (id - t[i] * t[j]));
-                        add(&mut blk_c[(i, j)], c * (hat_sq[(i, j)] - rt[i] * rt[j]));
-                    }
-                    for j in 0..3 {
-                        add(&mut blk_b[(i, j)], c * (hat_r[(i, j)] - rt[i] * t[j]));
-                    }
+                // Where every lane is taut (the legs' lanes agree, as at the bench's
+                // configurations) the plain sums are the masked ones bit for bit, without
+                // the masks' selects.
+                macro_rules! tendon_terms {
+                    ($add:expr) => {{
+                        let add = $add;
+                        for i in 0..3 {
+                            for j in i..3 {
+                                let id = T::splat(if i == j { 1.0 } else { 0.0 });
+                                add(&mut blk_a[(i, j)], c * (id - t[i] * t[j]));
+                                add(&mut blk_c[(i, j)], c * (hat_sq[(i, j)] - rt[i] * rt[j]));
+                            }
+                            for j in 0..3 {
+                                add(&mut blk_b[(i, j)], c * (hat_r[(i, j)] - rt[i] * t[j]));
+                            }
+                        }
+                        let z = cross(&u, &w);
+                        let a_z = (z - t * dot(&t, &z)) * c;
+                        let moment = cross(&r_k, &a_z);
+                        for i in 0..3 {
+                            add(&mut rhs_v[i], -a_z[i]);
+                            add(&mut rhs_u[i], -moment[i]);
+                        }
+                    }};
                 }
-                let z = cross(&u, &w);
-                let a_z = (z - t * dot(&t, &z)) * c;
-                let moment = cross(&r_k, &a_z);
-                for i in 0..3 {
-                    add(&mut rhs_v[i], -a_z[i]);
-                    add(&mut rhs_u[i], -moment[i]);
+                if T::all(taut) {
+                    tendon_terms!(|acc: &mut T, x: T| *acc += x)
+                } else {
+                    tendon_terms!(|acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x))
                 }
             }
             let point = &mut self.tendons[k];
@@ -480,17 +492,27 @@ impl<T: Real> Stage<T> {
                 }
             }
             // [I; r̂] applied to N (H_v columns) and Ñ (H_u columns): r̂ M by rows.
-            let add = |acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x);
-            for (m, col) in [(&n, 0), (&nt, 3)] {
-                for j in 0..3 {
-                    let (m0, m1, m2) = (m[0][j], m[1][j], m[2][j]);
-                    add(&mut h[0][col + j], m0);
-                    add(&mut h[1][col + j], m1);
-                    add(&mut h[2][col + j], m2);
-                    add(&mut h[3][col + j], r.y * m2 - r.z * m1);
-                    add(&mut h[4][col + j], r.z * m0 - r.x * m2);
-                    add(&mut h[5][col + j], r.x * m1 - r.y * m0);
-                }
+            // As in `eval`: plain sums where every lane is taut.
+            macro_rules! h_terms {
+                ($add:expr) => {{
+                    let add = $add;
+                    for (m, col) in [(&n, 0), (&nt, 3)] {
+                        for j in 0..3 {
+                            let (m0, m1, m2) = (m[0][j], m[1][j], m[2][j]);
+                            add(&mut h[0][col + j], m0);
+                            add(&mut h[1][col + j], m1);
+                            add(&mut h[2][col + j], m2);
+                            add(&mut h[3][col + j], r.y * m2 - r.z * m1);
+                            add(&mut h[4][col + j], r.z * m0 - r.x * m2);
+                            add(&mut h[5][col + j], r.x * m1 - r.y * m0);
+                        }
+                    }
+                }};
+            }
+            if T::all(taut) {
+                h_terms!(|acc: &mut T, x: T| *acc += x)
+            } else {
+                h_terms!(|acc: &mut T, x: T| *acc = T::add_where(taut, *acc, x))
             }
         }
     }
