@@ -543,7 +543,7 @@ impl<T: Real> Stage<T> {
         // (they went through the stack: 348.5 k → 338.7 k), and the outputs that do not
         // need the strain solve come first, so that b's twelve vectors are not live across
         // them (→ 326.3 k; bitwise the same results, BENCHMARKS.md "The tangent kernel's
-        // live values").
+        // live values; plain sums where every lane is taut").
         let row = |i| *d.row::<N>(i);
         let dv = [row(K_V), row(K_V + 1), row(K_V + 2)];
         let du = [row(K_U), row(K_U + 1), row(K_U + 2)];
