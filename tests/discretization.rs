@@ -111,6 +111,13 @@ fn the_default_steps_put_the_platform_and_tips_within_a_micrometre_of_a_fine_dis
         ("lilge2022_redundant.ron", &nine_bent[..]),
         ("lilge2022_redundant_psi0.ron", &nine[..]),
         ("lilge2022_redundant_psi0.ron", &nine_bent[..]),
+        // The optimizer's bundled results (RK4 at 26 steps, their own geometry).
+        ("optimized/best_composite.ron", &six[..]),
+        ("optimized/best_composite.ron", &six_bent[..]),
+        ("optimized/pareto_max_volume.ron", &six_bent[..]),
+        ("optimized/pareto_max_isotropy.ron", &six[..]),
+        ("optimized/pareto_max_margin.ron", &six[..]),
+        ("optimized/pareto_max_volume.ron", &six[..]),
     ] {
         let (position, rotation) = errors(file, q);
         println!("{file} q = {q:?}: position {position:.2e} m, rotation × L {rotation:.2e} m");
