@@ -632,13 +632,18 @@ fn inverse_jacobian(
 
 /// −z\[r0..r0 + nr, c0..c0 + nc\] as a new matrix, column by column from z's
 /// column-major storage (the same values as nalgebra's negated view, which went element
-/// by element through its iterator: about 16 k instructions of a 9-DoF analysis).
+/// by element through its iterator: about 18 k instructions of a 9-DoF analysis).
 fn negated_block(
     z: &DMatrix<f64>,
     (r0, c0): (usize, usize),
     (nr, nc): (usize, usize),
 ) -> DMatrix<f64> {
     let ld = z.nrows();
+    assert!(
+        r0 + nr <= ld && c0 + nc <= z.ncols(),
+        "block ({r0}, {c0}) + ({nr}, {nc}) outside a {ld} × {} matrix",
+        z.ncols()
+    );
     let src = z.as_slice();
     let mut data = Vec::with_capacity(nr * nc);
     for c in c0..c0 + nc {

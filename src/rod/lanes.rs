@@ -69,7 +69,9 @@ pub trait Real:
     fn finite(self) -> Self::Mask;
     /// Whether any lane of `m` is set.
     fn any(m: Self::Mask) -> bool;
-    /// Whether every lane of `m` is set.
+    /// Whether every lane of `m` is set (a mask from [`Real::nonzero`] and its kin: each
+    /// lane all ones or all zeros, so that [`Real::add_where`] under a mask with every lane
+    /// set is the plain sum).
     fn all(m: Self::Mask) -> bool;
     /// `acc + x` in the lanes of `m`, `acc` elsewhere (bitwise: a lane outside `m` is
     /// left exactly as it was, as a skipped branch would leave it).

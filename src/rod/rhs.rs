@@ -298,7 +298,8 @@ impl<T: Real> Stage<T> {
                 let (hat_r, hat_sq) = (&tendons.hats[k], &tendons.hat_squares[k]);
                 // Where every lane is taut (the legs' lanes agree, as at the bench's
                 // configurations) the plain sums are the masked ones bit for bit, without
-                // the masks' selects.
+                // the masks' selects. A macro: the block is needed once per adder (two
+                // closure types), each compiled with its adder inlined.
                 macro_rules! tendon_terms {
                     ($add:expr) => {{
                         let add = $add;
@@ -536,14 +537,12 @@ impl<T: Real> Stage<T> {
         let at = |x: &T| *x.lane_ref(leg);
         let lane = |x: &Vector3<T>| Vector3::new(at(&x.x), at(&x.y), at(&x.z));
         let f = &model.weight_per_length;
-        // The input rows as copies, not references: through an array of references the
-        // products below were compiled as scalar FMAs (the exact Jacobian 357 k → 408 k
-        // instructions, callgrind, 2026-11-28); read element by element at their use,
-        // 348 k → 393 k. R's rows are copied where they are used, not all nine up front
-        // (they went through the stack: 348.5 k → 338.7 k), and the outputs that do not
-        // need the strain solve come first, so that b's twelve vectors are not live across
-        // them (→ 326.3 k; bitwise the same results, BENCHMARKS.md "The tangent kernel's
-        // live values; plain sums where every lane is taut").
+        // The input rows as copies (through references, or read element by element at
+        // their use, the products were compiled as scalar code); R's rows copied where
+        // they are used, not all nine up front (those went through the stack); the outputs
+        // that need no strain solve first, so that b's twelve vectors are not live across
+        // them. Figures in BENCHMARKS.md "The tangent kernel's live values; plain sums
+        // where every lane is taut".
         let row = |i| *d.row::<N>(i);
         let dv = [row(K_V), row(K_V + 1), row(K_V + 2)];
         let du = [row(K_U), row(K_U + 1), row(K_U + 2)];
@@ -588,17 +587,17 @@ impl<T: Real> Stage<T> {
         }
         // b = H [dv; du] + the tension sources, column by column: each row's products are
         // summed in column order either way, but by rows the compiler spilled the twelve
-        // accumulators after their first product (338.7 k → 335.7 k instructions).
+        // accumulators after their first product.
         let mut b = [[0.0; N]; 6];
-        for (row, b_row) in b.iter_mut().enumerate() {
-            *b_row = self.inject[leg][row][..N].try_into().expect("N lanes");
+        for (i, b_row) in b.iter_mut().enumerate() {
+            *b_row = self.inject[leg][i][..N].try_into().expect("N lanes");
         }
         for (col, x) in [&dv[0], &dv[1], &dv[2], &du[0], &du[1], &du[2]]
             .into_iter()
             .enumerate()
         {
-            for (row, b_row) in b.iter_mut().enumerate() {
-                let h = at(&self.h[row][col]);
+            for (i, b_row) in b.iter_mut().enumerate() {
+                let h = at(&self.h[i][col]);
                 for j in 0..N {
                     b_row[j] = fma(h, x[j], b_row[j]);
                 }
